@@ -1,0 +1,101 @@
+// BSDF interface shared by PT, BPT and VCM.
+//
+// ---- Direction convention (the only one in this project) -------------------------------
+// * All directions are unit vectors pointing AWAY from the surface point.
+// * A Bxdf works in the local shading frame: the shading normal is +z, cos(theta) = w.z.
+// * `wo` points towards the PREVIOUS vertex of the random walk (where the walk came from);
+//   `wi` points towards the NEXT vertex (the direction being sampled or evaluated).
+// * TransportMode says what the walk carries:
+//     Radiance   (camera subpaths): wo points towards the camera side; light flows wi -> wo.
+//     Importance (light subpaths):  wo points towards the light side; light flows wo -> wi.
+//   eval(wo, wi, mode) returns the value to multiply by |cos(wi)| in the walk's throughput:
+//   f(wi -> wo) for Radiance, the adjoint f*(wo, wi) = f(wo -> wi) for Importance. The two differ
+//   only for refraction (the 1/eta^2 radiance scaling is applied in Radiance mode only).
+//   The shading-normal adjoint correction is NOT in the Bxdf: see Bsdf (world-space wrapper).
+// * pdfFwd: solid-angle density of sampling wi given wo. pdfRev: density of sampling wo given wi
+//   (what the walk in the other direction would have used). Both at this vertex.
+// * A delta lobe (smooth conductor/dielectric, alpha below kMinAlpha) is never returned by eval
+//   (f = 0, pdfs = 0); sample() returns it with the Delta flag, weight = f|cos|/pdf, and pdfFwd /
+//   pdfRev set to the discrete probability of choosing that lobe (never used as a density).
+#pragma once
+#include <memory>
+#include <string>
+#include "core/math.h"
+
+namespace lt {
+
+enum class TransportMode { Radiance, Importance };
+
+enum BsdfFlags : uint32_t {
+    kNone = 0,
+    kReflection = 1u << 0,
+    kTransmission = 1u << 1,
+    kDiffuse = 1u << 2,
+    kGlossy = 1u << 3,
+    kDelta = 1u << 4,
+};
+
+// Microfacet alphas below this are treated as a delta lobe (smooth surface).
+inline constexpr float kMinAlpha = 1e-4f;
+
+// Overridden microfacet roughness for regularisation (JG19, OPSR). Ignored by lobes that are
+// not microfacet based (diffuse). A delta lobe given an override becomes a rough lobe.
+struct Roughness {
+    float alphaU = 0.f, alphaV = 0.f;
+};
+
+struct BsdfEval {
+    Color f{0.f};
+    SolidAnglePdf pdfFwd, pdfRev;
+};
+
+struct BsdfSample {
+    Vec3 wi{0.f};
+    Color weight{0.f};  // f * |cos(wi)| / pdfFwd (for delta lobes: f|cos| / P(lobe))
+    SolidAnglePdf pdfFwd, pdfRev;
+    uint32_t lobe = kNone;  // flags of the sampled lobe
+    float eta = 1.f;        // relative IOR crossed (1 for reflection)
+};
+
+enum class MicrofacetType { GGX, Beckmann };
+enum class MaskingModel { Smith, VCavity };
+
+// Local-frame BSDF model. Stateless after construction, shared by all hits on a material.
+class Bxdf {
+public:
+    virtual ~Bxdf() = default;
+    virtual BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode mode,
+                          const Roughness* rough = nullptr) const = 0;
+    // uLobe chooses between lobes (reflection/transmission), u the direction.
+    virtual bool sample(const Vec3& wo, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& out,
+                        const Roughness* rough = nullptr) const = 0;
+    // Union of the flags of all lobes.
+    virtual uint32_t flags() const = 0;
+    // Scalar roughness in [0,1] for accumulated roughness (OPSR): 0 delta, 1 diffuse,
+    // microfacet: sqrt(alpha_u * alpha_v) clamped to [0,1].
+    virtual float roughness() const = 0;
+    // The microfacet alphas (0,0 for non-microfacet lobes).
+    virtual Roughness alpha() const { return {}; }
+    virtual std::string name() const = 0;
+    bool isDelta() const { return (flags() & (kDiffuse | kGlossy)) == 0; }
+};
+
+using BxdfPtr = std::shared_ptr<const Bxdf>;
+
+// ---- Factories (the scene loader builds materials through these) ----
+BxdfPtr makeDiffuse(const Color& reflectance);
+// eta, k: complex IOR of the conductor relative to the exterior (RGB).
+BxdfPtr makeConductor(const Color& eta, const Color& k, const Color& specularReflectance);
+BxdfPtr makeRoughConductor(MicrofacetType dist, float alphaU, float alphaV, const Color& eta, const Color& k,
+                           const Color& specularReflectance, MaskingModel masking = MaskingModel::Smith);
+// eta = int_ior / ext_ior.
+BxdfPtr makeDielectric(float eta, const Color& specularReflectance = Color(1.f),
+                       const Color& specularTransmittance = Color(1.f));
+BxdfPtr makeRoughDielectric(MicrofacetType dist, float alphaU, float alphaV, float eta,
+                            const Color& specularReflectance = Color(1.f),
+                            const Color& specularTransmittance = Color(1.f),
+                            MaskingModel masking = MaskingModel::Smith);
+// Mitsuba's twosided: the inner BSDF on both sides (wo, wi mirrored when wo.z < 0).
+BxdfPtr makeTwoSided(BxdfPtr inner);
+
+}  // namespace lt

@@ -1,0 +1,78 @@
+// What the scene loader produces: a plain description, independent of Embree.
+// Units and conventions follow Mitsuba 3 (see README): the camera looks along +Z of its frame with
+// +X to the image left and +Y up; area emitters emit on the side their normal points to.
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+#include "bsdf/bsdf.h"
+#include "core/math.h"
+
+namespace lt {
+
+struct MeshDesc {
+    std::string name;            // for messages (file or shape id)
+    std::vector<Vec3> positions; // world space
+    std::vector<Vec3> normals;   // world space, per vertex; empty = face normals
+    std::vector<Vec2> uvs;       // per vertex; may be empty
+    std::vector<uint32_t> indices;  // 3 per triangle (quads are split by the loader)
+    int bsdf = -1;               // index into SceneDesc::bsdfs
+    int emitter = -1;            // index into SceneDesc::emitters (type Area), or -1
+};
+
+struct SphereDesc {
+    std::string name;
+    Vec3 center{0.f};
+    float radius = 1.f;
+    bool flipNormals = false;  // normals point inwards
+    int bsdf = -1;
+    int emitter = -1;
+};
+
+enum class EmitterType { Area, Point, Spot, Directional, Constant };
+
+struct EmitterDesc {
+    EmitterType type = EmitterType::Area;
+    Color value{1.f};        // area/constant: radiance; point/spot: intensity (W/sr); directional: irradiance
+    Vec3 position{0.f};      // point, spot
+    Vec3 direction{0, 0, 1}; // spot: beam axis; directional: direction light travels (world space, unit)
+    float cutoffAngleDeg = 20.f;  // spot
+    float beamWidthDeg = 15.f;    // spot (default 3/4 of the cutoff)
+    std::string source;      // "file:line" for messages
+};
+
+enum class FovAxis { X, Y, Smaller, Larger, Diagonal };
+enum class FilterType { Box, Tent };
+
+struct CameraDesc {
+    Mat4 toWorld{1.f};       // camera frame: +Z forward, +Y up, +X image left
+    float fovDeg = 45.f;
+    FovAxis fovAxis = FovAxis::X;
+    float nearClip = 0.01f;
+    int width = 768, height = 576;
+    FilterType filter = FilterType::Box;  // tent: filter importance sampling, radius 1 pixel
+};
+
+struct IntegratorDesc {
+    std::string type = "path";  // path | bdpt | vcm | ptracer | ppm
+    int maxDepth = -1;          // -1 = unlimited (Mitsuba); counts segments: 1 = direct emission only
+    int rrDepth = 5;
+    bool hideEmitters = false;
+    float radius = -1.f;        // VCM/PPM initial radius (<=0: derived from scene size)
+    float radiusAlpha = 0.75f;
+};
+
+struct SceneDesc {
+    std::string path;                  // the scene file
+    std::vector<BxdfPtr> bsdfs;
+    std::vector<MeshDesc> meshes;
+    std::vector<SphereDesc> spheres;
+    std::vector<EmitterDesc> emitters;
+    CameraDesc camera;
+    IntegratorDesc integrator;
+    int sampleCount = 4;
+    uint64_t seed = 0;
+    std::vector<std::string> warnings;  // fallbacks taken (unsupported filter, sampler, ...)
+};
+
+}  // namespace lt
