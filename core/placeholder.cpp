@@ -1,0 +1,1 @@
+namespace lt { int corePlaceholder() { return 0; } }
