@@ -1,0 +1,384 @@
+// Error metrics (core/metrics.h) against hand-computed values, and the imgcompare tool.
+#include <catch2/catch.hpp>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "core/image.h"
+#include "core/metrics.h"
+
+using namespace lt;
+namespace fs = std::filesystem;
+using Catch::Matchers::Contains;
+
+namespace {
+
+struct TempDir {
+    fs::path dir;
+    TempDir() {
+        static std::atomic<int> counter{0};
+        dir = fs::temp_directory_path() /
+              ("lt_test_metrics_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+        fs::create_directories(dir);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+    }
+    std::string file(const std::string& name) const { return (dir / name).string(); }
+};
+
+// 2x2 grey images (all three channels equal, so per-value averages equal per-pixel ones):
+//   A (image)      B (reference)
+//   1  2           1  1
+//   3  0           1  0
+Image imageA() {
+    Image a(2, 2);
+    a.at(0, 0) = Color(1.f); a.at(1, 0) = Color(2.f);
+    a.at(0, 1) = Color(3.f); a.at(1, 1) = Color(0.f);
+    return a;
+}
+Image imageB() {
+    Image b(2, 2);
+    b.at(0, 0) = Color(1.f); b.at(1, 0) = Color(1.f);
+    b.at(0, 1) = Color(1.f); b.at(1, 1) = Color(0.f);
+    return b;
+}
+// Hand-computed for A vs B (differences 0, 1, 2, 0):
+//   meanImage     = (1+2+3+0)/4 = 1.5,   meanReference = (1+1+1+0)/4 = 0.75
+//   MSE           = (0 + 1 + 4 + 0)/4 = 1.25
+//   relMSE        = (0 + 1/1.01 + 4/1.01 + 0/(0+0.01))/4 = 5/4.04 = 1.2376237623762376
+//   RMS RE        = sqrt((0 + 1/1.5^2 + 2^2/2^2 + 0 [a+b == 0])/4) = sqrt((4/9 + 1)/4) = sqrt(13/36)
+//                 = sqrt(13)/6 = 0.6009252125773316
+//   MAPE          = (0 + 1/1.01 + 2/1.01 + 0)/4 = 3/4.04 = 0.7425742574257426
+constexpr double kMeanA = 1.5, kMeanB = 0.75, kMse = 1.25, kRelMse = 5.0 / 4.04, kMape = 3.0 / 4.04;
+const double kRmsRe = std::sqrt(13.0) / 6.0;
+
+struct RunResult {
+    int exitCode;
+    std::string output;
+};
+
+// Runs the imgcompare binary with the given arguments; stdout and stderr are captured together.
+RunResult runImgcompare(const std::string& args) {
+    std::string cmd = std::string("'") + LT_IMGCOMPARE_BIN + "' " + args + " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    REQUIRE(p != nullptr);
+    std::string out;
+    char buf[4096];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+    int status = pclose(p);
+    REQUIRE(WIFEXITED(status));
+    return {WEXITSTATUS(status), out};
+}
+
+// Parses "name: value" lines.
+std::map<std::string, double> parseLines(const std::string& out) {
+    std::map<std::string, double> m;
+    std::istringstream in(out);
+    std::string line;
+    while (std::getline(in, line)) {
+        size_t colon = line.find(": ");
+        if (colon == std::string::npos) continue;
+        m[line.substr(0, colon)] = std::stod(line.substr(colon + 2));
+    }
+    return m;
+}
+
+std::string q(const std::string& s) { return "'" + s + "'"; }
+
+}  // namespace
+
+TEST_CASE("Metrics match hand-computed values on a 2x2 image", "[metrics]") {
+    ErrorMetrics m = computeMetrics(imageA(), imageB());
+    CHECK(m.pixels == 4);
+    // All inputs are small integers, so double accumulation is exact up to the final division
+    // and sqrt: 1e-14 relative leaves room only for rounding.
+    CHECK(m.meanImage == Approx(kMeanA).epsilon(1e-14));
+    CHECK(m.meanReference == Approx(kMeanB).epsilon(1e-14));
+    CHECK(m.mse == Approx(kMse).epsilon(1e-14));
+    CHECK(m.relMse == Approx(kRelMse).epsilon(1e-14));
+    CHECK(m.rmsRelErr == Approx(kRmsRe).epsilon(1e-14));
+    CHECK(m.mape == Approx(kMape).epsilon(1e-14));
+
+    // Identical images: every error is 0, the means are equal.
+    ErrorMetrics z = computeMetrics(imageA(), imageA());
+    CHECK(z.mse == 0.0);
+    CHECK(z.relMse == 0.0);
+    CHECK(z.rmsRelErr == 0.0);
+    CHECK(z.mape == 0.0);
+    CHECK(z.meanImage == z.meanReference);
+}
+
+TEST_CASE("Metrics average over the three channels", "[metrics]") {
+    // One pixel, A = (1, 2, 3), B = (1, 1, 1): differences 0, 1, 2.
+    Image a(1, 1, Color(1.f, 2.f, 3.f)), b(1, 1, Color(1.f));
+    ErrorMetrics m = computeMetrics(a, b);
+    CHECK(m.pixels == 1);
+    CHECK(m.meanImage == Approx(2.0).epsilon(1e-14));                // (1+2+3)/3
+    CHECK(m.mse == Approx(5.0 / 3.0).epsilon(1e-14));                // (0+1+4)/3
+    CHECK(m.relMse == Approx(5.0 / 1.01 / 3.0).epsilon(1e-14));      // (0+1+4)/(1+0.01)/3
+    CHECK(m.rmsRelErr == Approx(std::sqrt((1.0 / 2.25 + 1.0) / 3.0)).epsilon(1e-14));  // 1/1.5^2, 2^2/2^2
+    CHECK(m.mape == Approx(3.0 / 1.01 / 3.0).epsilon(1e-14));        // (0+1+2)/1.01/3
+}
+
+TEST_CASE("relMSE, RMS-RE and MAPE with zero reference values behave as documented", "[metrics]") {
+    // A = (0.1, 0, 0), B = (0, 0, 0).
+    Image a(1, 1, Color(0.1f, 0.f, 0.f)), b(1, 1, Color(0.f));
+    ErrorMetrics m = computeMetrics(a, b);
+    const double a0 = double(0.1f);
+    // relMSE: a0^2 / (0 + eps) for the red value, 0 for the two 0-vs-0 values.
+    CHECK(m.relMse == Approx(a0 * a0 / kRelMseEpsilon / 3.0).epsilon(1e-12));
+    CHECK(m.relMse == Approx(1.0 / 3.0).epsilon(1e-6));  // 0.1^2/0.01 = 1
+    // RMS RE: (a-0)^2/((a+0)/2)^2 = 4 for any a != 0 (the maximal relative error, 2); the two pairs
+    // with a+b == 0 contribute 0, so RMS RE = sqrt(4/3). Finite, no epsilon involved.
+    CHECK(std::isfinite(m.rmsRelErr));
+    CHECK(m.rmsRelErr == Approx(std::sqrt(4.0 / 3.0)).epsilon(1e-14));
+    // MAPE: 0.1/(0 + 0.01) = 10 for the red value.
+    CHECK(m.mape == Approx(a0 / kMapeEpsilon / 3.0).epsilon(1e-12));
+
+    // All-zero images: every metric is exactly 0 (no 0/0).
+    ErrorMetrics z = computeMetrics(Image(2, 2), Image(2, 2));
+    CHECK(z.relMse == 0.0);
+    CHECK(z.rmsRelErr == 0.0);
+    CHECK(z.mape == 0.0);
+
+    // a = -b != 0 also has a + b == 0: documented to contribute 0 to RMS RE.
+    ErrorMetrics opp = computeMetrics(Image(1, 1, Color(-1.f)), Image(1, 1, Color(1.f)));
+    CHECK(opp.rmsRelErr == 0.0);
+    CHECK(opp.mse == Approx(4.0).epsilon(1e-14));
+
+    // The constants are the documented ones.
+    CHECK(kRelMseEpsilon == 1e-2);
+    CHECK(kMapeEpsilon == 1e-2);
+}
+
+TEST_CASE("RMS RE is symmetric and scale invariant, relMSE uses the reference", "[metrics]") {
+    Image a = imageA(), b = imageB();
+    ErrorMetrics ab = computeMetrics(a, b), ba = computeMetrics(b, a);
+    CHECK(ab.rmsRelErr == Approx(ba.rmsRelErr).epsilon(1e-14));
+    CHECK(ab.mse == Approx(ba.mse).epsilon(1e-14));
+    // relMSE normalises by b only, so swapping changes it: B vs A gives
+    // (0 + 1/(4+0.01) + 4/(9+0.01) + 0)/4.
+    CHECK(ba.relMse == Approx((1.0 / 4.01 + 4.0 / 9.01) / 4.0).epsilon(1e-14));
+    // Scaling both images by 1000 leaves RMS RE unchanged (no epsilon in the JG19 definition).
+    Image a2 = a, b2 = b;
+    for (auto& c : a2.pixels) c *= 1000.f;
+    for (auto& c : b2.pixels) c *= 1000.f;
+    CHECK(computeMetrics(a2, b2).rmsRelErr == Approx(kRmsRe).epsilon(1e-12));
+}
+
+TEST_CASE("Crop restricts the compared region", "[metrics]") {
+    // 3x3, reference all 1; the image differs only at the centre (1,1) = 4 and at (2,0) = 0.
+    Image ref(3, 3, Color(1.f)), img(3, 3, Color(1.f));
+    img.at(1, 1) = Color(4.f);
+    img.at(2, 0) = Color(0.f);
+    CropRect centre{1, 1, 1, 1};
+    ErrorMetrics c = computeMetrics(img, ref, &centre);
+    CHECK(c.pixels == 1);
+    CHECK(c.mse == Approx(9.0).epsilon(1e-14));  // (4-1)^2
+    CHECK(c.meanImage == Approx(4.0).epsilon(1e-14));
+    CropRect topRight{1, 0, 2, 1};  // pixels (1,0) and (2,0): differences 0 and 1
+    ErrorMetrics t = computeMetrics(img, ref, &topRight);
+    CHECK(t.pixels == 2);
+    CHECK(t.mse == Approx(0.5).epsilon(1e-14));
+    CropRect corner{0, 2, 1, 1};
+    CHECK(computeMetrics(img, ref, &corner).mse == 0.0);
+    // Whole image: (9 + 1)/9.
+    CHECK(computeMetrics(img, ref).mse == Approx(10.0 / 9.0).epsilon(1e-14));
+
+    // A non-finite pixel outside the crop does not matter; inside it throws.
+    img.at(0, 2) = Color(std::numeric_limits<float>::quiet_NaN());
+    CHECK_NOTHROW(computeMetrics(img, ref, &centre));
+    CHECK_THROWS_AS(computeMetrics(img, ref, &corner), std::invalid_argument);
+
+    // Crops that are empty or leave the image throw.
+    for (CropRect bad : {CropRect{0, 0, 0, 1}, CropRect{-1, 0, 1, 1}, CropRect{2, 0, 2, 1}, CropRect{0, 1, 1, 3}}) {
+        INFO("crop " << bad.x << "," << bad.y << "," << bad.w << "," << bad.h);
+        CHECK_THROWS_AS(computeMetrics(ref, ref, &bad), std::invalid_argument);
+    }
+}
+
+TEST_CASE("Size mismatch and non-finite pixels throw", "[metrics]") {
+    Image a(2, 2), b(3, 2);
+    CHECK_THROWS_AS(computeMetrics(a, b), std::invalid_argument);
+    CHECK_THROWS_WITH(computeMetrics(a, b), Contains("2x2") && Contains("3x2"));
+    CHECK_THROWS_WITH(errorMap(a, b, Metric::Mse), Contains("2x2") && Contains("3x2"));
+    CHECK_THROWS_AS(computeMetrics(Image(), Image()), std::invalid_argument);
+
+    Image nan(2, 2), ref(2, 2);
+    nan.at(1, 0).y = std::numeric_limits<float>::quiet_NaN();
+    CHECK_THROWS_WITH(computeMetrics(nan, ref), Contains("image") && Contains("(1, 0)"));
+    Image inf(2, 2);
+    inf.at(0, 1).z = std::numeric_limits<float>::infinity();
+    CHECK_THROWS_WITH(computeMetrics(ref, inf), Contains("reference") && Contains("(0, 1)"));
+}
+
+TEST_CASE("Error maps hold the per-value terms", "[metrics]") {
+    Image a = imageA(), b = imageB();
+    ErrorMetrics m = computeMetrics(a, b);
+    auto mapMean = [](const Image& im) {
+        double s = 0;
+        for (const Color& c : im.pixels) s += double(c.x) + c.y + c.z;
+        return s / (3.0 * double(im.pixels.size()));
+    };
+    // Map values are stored as float, so their means agree with the metric to float precision.
+    CHECK(mapMean(errorMap(a, b, Metric::Mse)) == Approx(m.mse).epsilon(1e-6));
+    CHECK(mapMean(errorMap(a, b, Metric::RelMse)) == Approx(m.relMse).epsilon(1e-6));
+    CHECK(mapMean(errorMap(a, b, Metric::Mape)) == Approx(m.mape).epsilon(1e-6));
+    CHECK(std::sqrt(mapMean(errorMap(a, b, Metric::RmsRelErr))) == Approx(m.rmsRelErr).epsilon(1e-6));
+    CHECK(mapMean(errorMap(a, b, Metric::Mean)) == Approx(m.meanImage - m.meanReference).epsilon(1e-6));
+    // Individual entries: pixel (0,1) has a = 3, b = 1.
+    CHECK(errorMap(a, b, Metric::Mse).at(0, 1).x == 4.f);
+    CHECK(errorMap(a, b, Metric::Mean).at(0, 1).y == 2.f);
+    CHECK(errorMap(a, b, Metric::RmsRelErr).at(0, 1).z == 1.f);  // 2^2 / 2^2
+    CHECK(errorMap(a, b, Metric::RmsRelErr).at(1, 1).x == 0.f);  // 0 vs 0
+    // Cropped map has the crop's size and content.
+    CropRect crop{1, 0, 1, 2};
+    Image cm = errorMap(a, b, Metric::Mse, &crop);
+    CHECK(cm.width == 1);
+    CHECK(cm.height == 2);
+    CHECK(cm.at(0, 0).x == 1.f);  // (2-1)^2
+    CHECK(cm.at(0, 1).x == 0.f);  // (0-0)^2
+
+    CHECK(parseMetric("RelMSE") == Metric::RelMse);
+    CHECK(parseMetric("rmsre") == Metric::RmsRelErr);
+    CHECK_FALSE(parseMetric("psnr").has_value());
+    CHECK(std::string(metricName(Metric::Mape)) == "mape");
+}
+
+TEST_CASE("Double accumulation stays accurate on a large image", "[metrics]") {
+    // 1000x1000x3 values with constant difference d = 0.1f - 0.2f. A float accumulator would drift by
+    // ~1e-3 relative after 3e6 additions; double summation of per-row sums stays at ~1e-12.
+    Image a(1000, 1000, Color(0.1f)), b(1000, 1000, Color(0.2f));
+    const double d = double(0.1f) - double(0.2f);
+    ErrorMetrics m = computeMetrics(a, b);
+    CHECK(m.pixels == 1000000);
+    CHECK(m.mse == Approx(d * d).epsilon(1e-10));
+    CHECK(m.meanImage == Approx(double(0.1f)).epsilon(1e-10));
+    CHECK(m.relMse == Approx(d * d / (double(0.2f) * double(0.2f) + 0.01)).epsilon(1e-10));
+}
+
+TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[metrics][imgcompare]") {
+    TempDir tmp;
+    const std::string a = tmp.file("a.exr"), b = tmp.file("b.exr");
+    writeExr(imageA(), a);
+    writeExr(imageB(), b);
+
+    SECTION("all metrics") {
+        RunResult r = runImgcompare(q(a) + " " + q(b));
+        INFO(r.output);
+        REQUIRE(r.exitCode == 0);
+        auto v = parseLines(r.output);
+        // The tool prints shortest round-trip decimals, so parsing gives the double back exactly.
+        CHECK(v.at("pixels") == 4);
+        CHECK(v.at("mean_image") == Approx(kMeanA).epsilon(1e-14));
+        CHECK(v.at("mean_reference") == Approx(kMeanB).epsilon(1e-14));
+        CHECK(v.at("mse") == Approx(kMse).epsilon(1e-14));
+        CHECK(v.at("relmse") == Approx(kRelMse).epsilon(1e-14));
+        CHECK(v.at("relmse_eps") == 0.01);
+        CHECK(v.at("rmsre") == Approx(kRmsRe).epsilon(1e-14));
+        CHECK(v.at("mape") == Approx(kMape).epsilon(1e-14));
+        CHECK(v.at("mape_eps") == 0.01);
+    }
+    SECTION("single metric") {
+        RunResult r = runImgcompare(q(a) + " " + q(b) + " --metric mse");
+        INFO(r.output);
+        REQUIRE(r.exitCode == 0);
+        CHECK(r.output == "mse: 1.25\n");
+        r = runImgcompare(q(a) + " " + q(b) + " --metric RMSRE");
+        REQUIRE(r.exitCode == 0);
+        auto v = parseLines(r.output);
+        CHECK(v.size() == 1);
+        CHECK(v.at("rmsre") == Approx(kRmsRe).epsilon(1e-14));
+        // Swapping A and B changes relMSE (normalised by the reference B): (1/4.01 + 4/9.01)/4.
+        r = runImgcompare(q(b) + " " + q(a) + " --metric relmse");
+        REQUIRE(r.exitCode == 0);
+        CHECK(parseLines(r.output).at("relmse") == Approx((1.0 / 4.01 + 4.0 / 9.01) / 4.0).epsilon(1e-14));
+    }
+    SECTION("crop") {
+        // Only pixel (1,0): a = 2, b = 1.
+        RunResult r = runImgcompare(q(a) + " " + q(b) + " --crop 1,0,1,1");
+        INFO(r.output);
+        REQUIRE(r.exitCode == 0);
+        auto v = parseLines(r.output);
+        CHECK(v.at("pixels") == 1);
+        CHECK(v.at("mse") == 1.0);
+        CHECK(v.at("rmsre") == Approx(std::sqrt(1.0 / 2.25)).epsilon(1e-14));
+    }
+    SECTION("json") {
+        RunResult r = runImgcompare(q(a) + " " + q(b) + " --json");
+        INFO(r.output);
+        REQUIRE(r.exitCode == 0);
+        CHECK_THAT(r.output, Contains("\"mse\": 1.25") && Contains("\"pixels\": 4") &&
+                                 Contains("\"relmse_eps\": 0.01") && Contains("\"rmsre\": "));
+        CHECK(r.output.front() == '{');
+        CHECK(r.output.substr(r.output.size() - 2) == "}\n");
+    }
+    SECTION("error map") {
+        const std::string map = tmp.file("map.exr");
+        RunResult r = runImgcompare(q(a) + " " + q(b) + " --error-map " + q(map));
+        INFO(r.output);
+        REQUIRE(r.exitCode == 0);
+        Image got = readImage(map), want = errorMap(imageA(), imageB(), Metric::RelMse);  // default: relmse
+        REQUIRE(got.width == 2);
+        REQUIRE(got.height == 2);
+        CHECK(got.pixels == want.pixels);
+        const std::string mseMap = tmp.file("mse.pfm");
+        r = runImgcompare(q(a) + " " + q(b) + " --metric mse --error-map " + q(mseMap));
+        REQUIRE(r.exitCode == 0);
+        CHECK(readImage(mseMap).at(0, 1) == Color(4.f));
+    }
+    SECTION("image errors exit with 2 and name the file") {
+        const std::string missing = tmp.file("missing.exr");
+        RunResult r = runImgcompare(q(a) + " " + q(missing));
+        CHECK(r.exitCode == 2);
+        CHECK_THAT(r.output, Contains(missing));
+        r = runImgcompare(q(missing) + " " + q(b));
+        CHECK(r.exitCode == 2);
+        CHECK_THAT(r.output, Contains(missing));
+
+        const std::string big = tmp.file("big.exr");
+        writeExr(Image(3, 2), big);
+        r = runImgcompare(q(a) + " " + q(big));
+        CHECK(r.exitCode == 2);
+        CHECK_THAT(r.output, Contains(a) && Contains(big) && Contains("2x2") && Contains("3x2"));
+
+        const std::string nan = tmp.file("nan.pfm");
+        Image n = imageA();
+        n.at(1, 1).x = std::numeric_limits<float>::quiet_NaN();
+        writePfm(n, nan);
+        r = runImgcompare(q(nan) + " " + q(b));
+        CHECK(r.exitCode == 2);
+        CHECK_THAT(r.output, Contains(nan) && Contains("(1, 1)"));
+
+        r = runImgcompare(q(a) + " " + q(b) + " --error-map " + q(tmp.file("no/dir/map.exr")));
+        CHECK(r.exitCode == 2);
+    }
+    SECTION("usage errors exit with 1") {
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --bogus").exitCode == 1);
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --metric psnr").exitCode == 1);
+        CHECK(runImgcompare(q(a)).exitCode == 1);
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop 1,2,3").exitCode == 1);
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop a,b,c,d").exitCode == 1);
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop 1,1,2,2").exitCode == 1);  // outside 2x2
+    }
+    SECTION("help documents every flag") {
+        RunResult r = runImgcompare("--help");
+        INFO(r.output);
+        CHECK(r.exitCode == 0);
+        for (const char* s : {"--metric", "--crop", "--error-map", "--json", "relmse", "rmsre", "mape", "eps = 0.01"})
+            CHECK_THAT(r.output, Contains(s));
+    }
+}
