@@ -1,2 +1,72 @@
-// placeholder translation unit; replaced by the path tracer
-namespace lt { int integratorsPlaceholder() { return 0; } }
+// Unidirectional path tracer with next-event estimation and MIS: the camera walk of the shared
+// path-vertex store, evaluated with the two techniques s = 0 (emitter hit) and s = 1 (NEE).
+#include <stdexcept>
+#include "integrators/integrator.h"
+
+namespace lt {
+
+namespace {
+
+class PathTracer final : public Integrator {
+public:
+    explicit PathTracer(const RenderSettings& s) : settings_(s) {
+        if (s.ptStrategy == "mis") strategy_ = Strategy::Mis;
+        else if (s.ptStrategy == "nee") strategy_ = Strategy::Nee;
+        else if (s.ptStrategy == "bsdf") strategy_ = Strategy::Bsdf;
+        else throw std::invalid_argument("unknown PT strategy '" + s.ptStrategy + "' (supported: mis, nee, bsdf)");
+    }
+    std::string name() const override { return "pt"; }
+
+    void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
+                    WalkStats& stats) const override {
+        // Camera subpath: the camera plus at most max_depth surface vertices.
+        int maxDepth = settings_.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(settings_.maxDepth, kMaxPathVertices - 2);
+        std::array<PathVertex, kMaxPathVertices> z;
+        for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x) {
+                uint64_t pixel = uint64_t(y) * film.width() + x;
+                Rng rng = Rng::forSample(settings_.seed, pixel, pass);
+                Vec2 raster = Vec2(float(x), float(y)) + film.samplePixelOffset(rng.uniform2());
+                Color L = radiance(scene, raster, rng, maxDepth, z.data(), stats);
+                film.addSample(x, y, L);
+                film.addSampleCount(x, y, 1);
+            }
+    }
+
+    Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z,
+                   WalkStats& stats) const {
+        int nz = cameraWalk(scene, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats);
+        Color L(0.f);
+        PathPdfs pdfs;
+        for (int t = 2; t <= nz; ++t) {
+            const PathVertex& v = z[t - 1];
+            // s = 0: the walk hit an emitter (t - 1 segments).
+            bool neeImpossible = t == 2 || !z[t - 2].connectible();
+            if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
+                Color c = emitterHit(scene, z, t, pdfs);
+                if (!isBlack(c))
+                    L += c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
+            }
+            // s = 1: next-event estimation (t segments).
+            if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && v.connectible()) {
+                PathVertex y;
+                Connection conn;
+                if (sampleLightVertex(scene, v.p, rng, y) && connect(scene, &y, 1, z, t, conn, stats))
+                    L += conn.contribution *
+                         (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
+            }
+        }
+        return L;
+    }
+
+private:
+    enum class Strategy { Mis, Nee, Bsdf };
+    RenderSettings settings_;
+    Strategy strategy_ = Strategy::Mis;
+};
+
+}  // namespace
+
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s) { return std::make_unique<PathTracer>(s); }
+
+}  // namespace lt

@@ -1,1 +1,177 @@
-int main() { return 1; }  // placeholder, being written
+// render: renders a Mitsuba-XML scene to EXR (+ an sRGB PNG beside it).
+// Exit codes: 0 success; 1 bad command line; 2 bad scene (file, line, parameter named);
+// 3 output could not be written; 4 other runtime failure.
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include "core/image.h"
+#include "core/loader.h"
+#include "integrators/integrator.h"
+
+using namespace lt;
+namespace fs = std::filesystem;
+
+static std::string formatRate(double v) {
+    if (v >= 1e9) return fmt::format("{:.2f} G", v / 1e9);
+    if (v >= 1e6) return fmt::format("{:.2f} M", v / 1e6);
+    if (v >= 1e3) return fmt::format("{:.2f} k", v / 1e3);
+    return fmt::format("{:.1f} ", v);
+}
+
+int main(int argc, char** argv) {
+    CLI::App app{"render: a light-transport renderer for Mitsuba 3 XML scenes"};
+    std::string scenePath, output, integrator;
+    int spp = 0, threads = 0, maxDepth = -2;
+    double timeLimit = 0.0;
+    uint64_t seed = 0;
+    bool seedGiven = false, quiet = false;
+    std::vector<std::string> defines;
+    std::string statsJson;
+    app.add_option("scene", scenePath, "Scene file (Mitsuba 3 XML)")->required();
+    app.add_option("-o,--output", output, "Output image (.exr or .pfm); a .png is written beside it. "
+                                          "Default: out/<scene name>.exr");
+    app.add_option("--integrator", integrator, "Integrator, overrides the scene's: " + supportedIntegrators());
+    auto* sppOpt = app.add_option("--spp", spp, "Samples per pixel (overrides the scene's sample_count)")
+                       ->check(CLI::PositiveNumber);
+    app.add_option("--time", timeLimit, "Render for this many seconds instead of a fixed spp")
+        ->check(CLI::PositiveNumber)
+        ->excludes(sppOpt);
+    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    auto* seedOpt = app.add_option("--seed", seed, "Random seed (overrides the scene's sampler seed)");
+    app.add_option("--max-depth", maxDepth, "Maximum path length in segments (-1 = unlimited)")
+        ->check(CLI::Range(-1, 64));
+    app.add_option("-D", defines, "Override a <default> of the scene: -D name=value")->take_all();
+    std::string ptStrategy = "mis";
+    app.add_option("--pt-strategy", ptStrategy, "PT techniques: mis (default), nee, bsdf")
+        ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
+    app.add_flag("-q,--quiet", quiet, "No progress bar");
+    app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
+    app.footer("Exit codes: 0 success, 1 bad command line, 2 bad scene, 3 output not written, 4 runtime error.");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        int code = app.exit(e);
+        return code == 0 ? 0 : 1;
+    }
+    seedGiven = seedOpt->count() > 0;
+
+    std::map<std::string, std::string> defs;
+    for (const std::string& d : defines) {
+        auto eq = d.find('=');
+        if (eq == std::string::npos || eq == 0) {
+            fmt::print(stderr, "error: -D expects name=value, got '{}'\n", d);
+            return 1;
+        }
+        defs[d.substr(0, eq)] = d.substr(eq + 1);
+    }
+    if (output.empty()) output = (fs::path("out") / fs::path(scenePath).stem()).string() + ".exr";
+    std::string ext = fs::path(output).extension().string();
+    if (ext != ".exr" && ext != ".pfm") {
+        fmt::print(stderr, "error: --output must end in .exr or .pfm, got '{}'\n", output);
+        return 1;
+    }
+
+    SceneDesc desc;
+    try {
+        desc = loadScene(scenePath, defs);
+    } catch (const SceneError& e) {
+        fmt::print(stderr, "error: {}\n", e.what());
+        return 2;
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "error: {}: {}\n", scenePath, e.what());
+        return 2;
+    }
+    for (const std::string& w : desc.warnings) fmt::print(stderr, "warning: {}\n", w);
+
+    RenderSettings settings;
+    if (!integrator.empty()) {
+        settings.integrator = integrator;
+    } else if (desc.integrator.type == "path") {
+        settings.integrator = "pt";
+    } else {
+        fmt::print(stderr, "warning: integrator '{}' of the scene is not available yet; using pt\n",
+                   desc.integrator.type);
+        settings.integrator = "pt";
+    }
+    settings.spp = spp > 0 ? spp : (timeLimit > 0 ? 0 : desc.sampleCount);
+    settings.timeLimit = timeLimit;
+    settings.threads = threads;
+    settings.seed = seedGiven ? seed : desc.seed;
+    settings.maxDepth = maxDepth >= -1 ? maxDepth : desc.integrator.maxDepth;
+    settings.rrDepth = desc.integrator.rrDepth;
+    settings.hideEmitters = desc.integrator.hideEmitters;
+    settings.quiet = quiet;
+    settings.ptStrategy = ptStrategy;
+
+    try {
+        makeIntegrator(settings);  // validates the name before any work
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "error: {}\n", e.what());
+        return 1;
+    }
+
+    RenderStats stats;
+    Image img;
+    try {
+        Scene scene(desc);
+        auto progress = [&](const Progress& p) {
+            if (quiet) return;
+            double frac = p.passesTotal ? double(p.passesDone) / double(p.passesTotal)
+                                        : std::min(1.0, p.seconds / std::max(p.timeLimit, 1e-9));
+            double rate = p.seconds > 0 ? double(p.samples) / p.seconds : 0.0;
+            double eta = frac > 0 ? p.seconds * (1.0 - frac) / frac : 0.0;
+            int bar = 30, filled = int(frac * bar + 0.5);
+            fmt::print(stderr, "\r[{}{}] {:5.1f}%  {}samples/s  ETA {:.1f}s ", std::string(filled, '#'),
+                       std::string(bar - filled, ' '), 100.0 * frac, formatRate(rate), eta);
+        };
+        img = renderImage(scene, settings, stats, progress);
+        if (!quiet) fmt::print(stderr, "\n");
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "error: rendering failed: {}\n", e.what());
+        return 4;
+    }
+
+    try {
+        fs::path out(output);
+        if (out.has_parent_path()) fs::create_directories(out.parent_path());
+        writeImage(img, output);
+        std::string png = fs::path(output).replace_extension(".png").string();
+        writePng(img, png);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "error: could not write '{}': {}\n", output, e.what());
+        return 3;
+    }
+
+    double sps = stats.seconds > 0 ? double(stats.samples) / stats.seconds : 0.0;
+    double rps = stats.seconds > 0 ? double(stats.rays) / stats.seconds : 0.0;
+    fmt::print("{}: {} spp, {:.3f} s, {}samples/s, {}rays/s, {} invalid samples -> {}\n", settings.integrator,
+               stats.spp, stats.seconds, formatRate(sps), formatRate(rps), stats.invalidSamples, output);
+    if (!statsJson.empty()) {
+        nlohmann::json j;
+        j["scene"] = scenePath;
+        j["output"] = output;
+        j["integrator"] = settings.integrator;
+        j["width"] = img.width;
+        j["height"] = img.height;
+        j["spp"] = stats.spp;
+        j["seconds"] = stats.seconds;
+        j["samples"] = stats.samples;
+        j["rays"] = stats.rays;
+        j["samples_per_second"] = sps;
+        j["rays_per_second"] = rps;
+        j["invalid_samples"] = stats.invalidSamples;
+        j["seed"] = settings.seed;
+        j["threads"] = threads;
+        j["max_depth"] = settings.maxDepth;
+        std::ofstream f(statsJson);
+        f << j.dump(2) << "\n";
+        if (!f) {
+            fmt::print(stderr, "error: could not write '{}'\n", statsJson);
+            return 3;
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,53 @@
+#include "core/film.h"
+
+namespace lt {
+
+Film::Film(int width, int height, FilterType filter)
+    : width_(width), height_(height), filter_(filter), sum_(size_t(width) * height, glm::dvec3(0.0)),
+      count_(size_t(width) * height, 0u), splat_(size_t(width) * height, glm::dvec3(0.0)) {}
+
+static float sampleTent(float u) {  // density 1 - |x| on [-1, 1]
+    if (u < 0.5f) return -1.f + std::sqrt(2.f * u);
+    return 1.f - std::sqrt(2.f - 2.f * u);
+}
+
+Vec2 Film::samplePixelOffset(const Vec2& u) const {
+    if (filter_ == FilterType::Tent) return Vec2(0.5f + sampleTent(u.x), 0.5f + sampleTent(u.y));
+    return u;
+}
+
+bool Film::addSample(int x, int y, const Color& c) {
+    if (!valid(c)) {
+        ++invalid_;
+        return false;
+    }
+    sum_[size_t(y) * width_ + x] += glm::dvec3(c);
+    return true;
+}
+
+bool Film::splat(SplatBuffer& buf, const Vec2& raster, const Color& c) {
+    if (!valid(c)) {
+        ++invalid_;
+        return false;
+    }
+    int x = std::clamp(int(raster.x), 0, width_ - 1), y = std::clamp(int(raster.y), 0, height_ - 1);
+    buf.splats.push_back({uint32_t(size_t(y) * width_ + x), c});
+    return true;
+}
+
+void Film::mergeSplats(const SplatBuffer& buf) {
+    for (const auto& s : buf.splats) splat_[s.pixel] += glm::dvec3(s.value);
+}
+
+Image Film::develop(uint64_t splatPasses) const {
+    Image img(width_, height_);
+    double inv = splatPasses > 0 ? 1.0 / double(splatPasses) : 0.0;
+    for (size_t i = 0; i < sum_.size(); ++i) {
+        glm::dvec3 v = count_[i] > 0 ? sum_[i] / double(count_[i]) : glm::dvec3(0.0);
+        v += splat_[i] * inv;
+        img.pixels[i] = Color(v);
+    }
+    return img;
+}
+
+}  // namespace lt

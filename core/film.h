@@ -1,0 +1,59 @@
+// Film: per-pixel accumulation of camera samples (box filter over the pixel; the tent filter is
+// realised by filter importance sampling of the pixel offset, so every sample stays in its own
+// pixel), plus a deterministic splat path for light tracing. Invalid (NaN, Inf, negative)
+// samples are rejected and counted, never accumulated.
+#pragma once
+#include <atomic>
+#include <vector>
+#include "core/image.h"
+#include "core/scene_desc.h"
+
+namespace lt {
+
+// Splats collected by one fixed chunk of work; merged into the film in chunk order, so the
+// result does not depend on which thread ran which chunk.
+struct SplatBuffer {
+    struct Splat { uint32_t pixel; Color value; };
+    std::vector<Splat> splats;
+    void clear() { splats.clear(); }
+};
+
+class Film {
+public:
+    Film(int width, int height, FilterType filter);
+    int width() const { return width_; }
+    int height() const { return height_; }
+
+    // Offset in pixel units of a camera sample inside/around its pixel, from u in [0,1)^2.
+    // Box: u itself. Tent (radius 1 px): x = 0.5 + tent(u).
+    Vec2 samplePixelOffset(const Vec2& u) const;
+
+    // Thread-safe as long as no two threads write the same pixel (tiles are disjoint).
+    // Returns false (and counts) for a NaN/Inf/negative sample.
+    bool addSample(int x, int y, const Color& c);
+    // Sample counts are kept per pixel (a pixel may get more samples in --time mode).
+    void addSampleCount(int x, int y, uint32_t n) { count_[size_t(y) * width_ + x] += n; }
+
+    // Thread-safe: records a light-tracing splat into the caller's buffer (rejects invalid values).
+    bool splat(SplatBuffer& buf, const Vec2& raster, const Color& c);
+    // Merge buffers (call in a fixed order). Splats are summed and divided by the number of
+    // splat passes given to develop().
+    void mergeSplats(const SplatBuffer& buf);
+
+    // Camera-sample average + splat sum / splatPasses.
+    Image develop(uint64_t splatPasses) const;
+
+    uint64_t invalidSamples() const { return invalid_.load(); }
+    void countInvalid(uint64_t n = 1) { invalid_ += n; }
+
+private:
+    bool valid(const Color& c) const { return isFinite(c) && c.x >= 0.f && c.y >= 0.f && c.z >= 0.f; }
+    int width_, height_;
+    FilterType filter_;
+    std::vector<glm::dvec3> sum_;
+    std::vector<uint32_t> count_;
+    std::vector<glm::dvec3> splat_;
+    std::atomic<uint64_t> invalid_{0};
+};
+
+}  // namespace lt

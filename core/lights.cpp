@@ -1,0 +1,152 @@
+#include "core/lights.h"
+#include "core/scene.h"
+
+namespace lt {
+
+Color Light::Le(const Vec3& n, const Vec3& w) const {
+    switch (type) {
+        case LightType::Area: return glm::dot(n, w) > 0.f ? value : Color(0.f);  // one-sided
+        case LightType::Constant: return value;
+        default: return Color(0.f);
+    }
+}
+
+float Light::spotFalloff(const Vec3& w) const {
+    float c = glm::dot(w, direction);
+    if (c <= cosCutoff) return 0.f;
+    float angle = std::acos(std::clamp(c, -1.f, 1.f));
+    if (angle <= beamWidth) return 1.f;
+    return std::clamp((cutoff - angle) / std::max(cutoff - beamWidth, 1e-7f), 0.f, 1.f);
+}
+
+LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const {
+    LightSampleLi s;
+    switch (type) {
+        case LightType::Area: {
+            scene.sampleAreaLight(*this, u, s.p, s.n);
+            Vec3 d = s.p - refP;
+            s.dist = glm::length(d);
+            if (!(s.dist > 0.f)) return LightSampleLi{};
+            s.wi = d / s.dist;
+            s.value = Le(s.n, -s.wi);
+            s.pdfPos = AreaPdf(1.f / area);
+            return s;
+        }
+        case LightType::Point:
+        case LightType::Spot: {
+            s.p = position;
+            Vec3 d = s.p - refP;
+            s.dist = glm::length(d);
+            if (!(s.dist > 0.f)) return LightSampleLi{};
+            s.wi = d / s.dist;
+            s.value = type == LightType::Spot ? value * spotFalloff(-s.wi) : value;
+            s.pdfPos = AreaPdf(1.f);
+            return s;
+        }
+        case LightType::Directional: {
+            s.wi = -direction;
+            s.dist = kInf;
+            s.p = refP + s.wi * (2.f * scene.boundsRadius());
+            s.value = value;
+            s.pdfPos = AreaPdf(1.f);
+            return s;
+        }
+        case LightType::Constant: {
+            s.wi = sampleUniformSphere(u);
+            s.dist = kInf;
+            s.p = refP + s.wi * (2.f * scene.boundsRadius());
+            s.value = value;
+            s.pdfPos = AreaPdf(kUniformSpherePdf);
+            return s;
+        }
+    }
+    return s;
+}
+
+AreaPdf Light::pdfLi(const Scene&, const Vec3&, const Vec3&, const Vec3&, const Vec3&) const {
+    switch (type) {
+        case LightType::Area: return AreaPdf(area > 0.f ? 1.f / area : 0.f);
+        case LightType::Constant: return AreaPdf(kUniformSpherePdf);
+        default: return AreaPdf(0.f);  // delta lights cannot be hit
+    }
+}
+
+AreaPdf Light::pdfLePos(const Scene& scene) const {
+    switch (type) {
+        case LightType::Area: return AreaPdf(area > 0.f ? 1.f / area : 0.f);
+        case LightType::Point:
+        case LightType::Spot: return AreaPdf(1.f);
+        case LightType::Directional:
+        case LightType::Constant: return AreaPdf(1.f / (kPi * sqr(scene.boundsRadius())));
+    }
+    return AreaPdf(0.f);
+}
+
+SolidAnglePdf Light::pdfLeDir(const Vec3& n, const Vec3& dir) const {
+    switch (type) {
+        case LightType::Area: return SolidAnglePdf(cosineHemispherePdf(glm::dot(n, dir)));
+        case LightType::Point: return SolidAnglePdf(kUniformSpherePdf);
+        case LightType::Spot:
+            return SolidAnglePdf(glm::dot(dir, direction) > cosCutoff ? 1.f / coneSolidAngle(cutoff) : 0.f);
+        case LightType::Directional: return SolidAnglePdf(1.f);  // delta direction
+        case LightType::Constant: return SolidAnglePdf(kUniformSpherePdf);
+    }
+    return SolidAnglePdf(0.f);
+}
+
+LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& uDir) const {
+    LightSampleLe s;
+    switch (type) {
+        case LightType::Area: {
+            scene.sampleAreaLight(*this, uPos, s.p, s.n);
+            Vec3 local = sampleCosineHemisphere(uDir);
+            s.dir = Frame(s.n).toWorld(local);
+            s.value = value;
+            s.pdfPos = AreaPdf(1.f / area);
+            s.pdfDir = SolidAnglePdf(cosineHemispherePdf(local.z));
+            return s;
+        }
+        case LightType::Point:
+            s.p = position;
+            s.dir = sampleUniformSphere(uDir);
+            s.value = value;
+            s.pdfPos = AreaPdf(1.f);
+            s.pdfDir = SolidAnglePdf(kUniformSpherePdf);
+            return s;
+        case LightType::Spot: {
+            s.p = position;
+            s.dir = Frame(direction).toWorld(sampleUniformCone(uDir, cosCutoff));
+            s.value = value * spotFalloff(s.dir);
+            s.pdfPos = AreaPdf(1.f);
+            s.pdfDir = SolidAnglePdf(1.f / coneSolidAngle(cutoff));
+            return s;
+        }
+        case LightType::Directional:
+        case LightType::Constant: {
+            s.dir = type == LightType::Directional ? direction : -sampleUniformSphere(uDir);
+            Frame f(s.dir);
+            Vec2 d = sampleConcentricDisk(uPos) * scene.boundsRadius();
+            s.p = scene.boundsCenter() - s.dir * scene.boundsRadius() + f.s * d.x + f.t * d.y;
+            s.n = s.dir;
+            s.value = value;
+            s.pdfPos = pdfLePos(scene);
+            s.pdfDir = SolidAnglePdf(type == LightType::Directional ? 1.f : kUniformSpherePdf);
+            return s;
+        }
+    }
+    return s;
+}
+
+float Light::power(const Scene& scene) const {
+    float r2 = sqr(scene.boundsRadius());
+    switch (type) {
+        case LightType::Area: return kPi * area * luminance(value);
+        case LightType::Point: return 4.f * kPi * luminance(value);
+        case LightType::Spot: return coneSolidAngle(0.5f * (cutoff + beamWidth)) * luminance(value);
+        case LightType::Directional: return kPi * r2 * luminance(value);
+        case LightType::Constant: return 4.f * kPi * kPi * r2 * luminance(value);
+    }
+    return 0.f;
+}
+
+}  // namespace lt

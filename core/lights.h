@@ -1,0 +1,72 @@
+// Light sources: area (on meshes and spheres), point, spot, directional, constant environment.
+// All emit RGB. Densities are typed: positions in area measure, directions in solid angle.
+// For lights at infinity (directional, constant) a "position" is a direction; their NEE pdf is a
+// solid-angle pdf carried in the AreaPdf slot (the measure of a vertex at infinity), and emission
+// positions are sampled on a disk of the scene's bounding-sphere radius.
+#pragma once
+#include <vector>
+#include "core/math.h"
+#include "core/sampling.h"
+#include "core/scene_desc.h"
+
+namespace lt {
+
+class Scene;
+
+enum class LightType { Area, Point, Spot, Directional, Constant };
+
+// A point on a light, sampled for next-event estimation from a reference point.
+struct LightSampleLi {
+    Vec3 p{0.f};        // position (for infinite lights: a far point, refP + wi * 2R)
+    Vec3 n{0.f};        // surface normal (area lights), zero otherwise
+    Vec3 wi{0.f};       // unit direction from the reference point to the light
+    float dist = 0.f;   // distance (infinite lights: kInf)
+    Color value{0.f};   // radiance (area, constant), intensity (point, spot) or irradiance (directional)
+    AreaPdf pdfPos;     // density of the point (area; solid angle for infinite lights; 1 for delta positions)
+};
+
+struct LightSampleLe {
+    Vec3 p{0.f}, n{0.f}, dir{0.f};
+    Color value{0.f};
+    AreaPdf pdfPos;
+    SolidAnglePdf pdfDir;
+};
+
+class Light {
+public:
+    LightType type;
+    Color value{0.f};
+    // Area lights: the shape's triangles (indices into the mesh) or a sphere.
+    int meshIndex = -1, sphereIndex = -1;
+    Vec3 position{0.f}, direction{0, 0, 1};  // point/spot; spot axis; directional travel direction
+    float cosCutoff = 1.f, cutoff = 0.f, beamWidth = 0.f;  // spot, radians
+    float area = 0.f;
+
+    bool isDeltaPosition() const { return type == LightType::Point || type == LightType::Spot; }
+    bool isDeltaDirection() const { return type == LightType::Directional; }
+    bool isDelta() const { return isDeltaPosition() || isDeltaDirection(); }
+    bool isInfinite() const { return type == LightType::Directional || type == LightType::Constant; }
+    // Can a random walk hit this light?
+    bool isHittable() const { return type == LightType::Area || type == LightType::Constant; }
+
+    // Radiance leaving a point of an area light with normal n in direction w; for the constant
+    // light, radiance arriving from direction -w (w points from the scene towards the sky).
+    Color Le(const Vec3& n, const Vec3& w) const;
+    // Spot intensity profile (1 inside the beam, falling linearly in angle to 0 at the cutoff).
+    float spotFalloff(const Vec3& wFromLight) const;
+
+    LightSampleLi sampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const;
+    // Density with which sampleLi picks point p (normal n) seen from refP, in the same measure as
+    // sampleLi's pdfPos. For infinite lights `p` is ignored and `wi` (ref -> light) is used.
+    AreaPdf pdfLi(const Scene& scene, const Vec3& refP, const Vec3& p, const Vec3& n, const Vec3& wi) const;
+
+    LightSampleLe sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& uDir) const;
+    // Density of the emission direction dir leaving point p (normal n).
+    SolidAnglePdf pdfLeDir(const Vec3& n, const Vec3& dir) const;
+    AreaPdf pdfLePos(const Scene& scene) const;
+
+    // Total emitted power (for choosing lights), needs the scene radius for infinite lights.
+    float power(const Scene& scene) const;
+};
+
+}  // namespace lt

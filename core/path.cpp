@@ -1,0 +1,241 @@
+#include "core/path.h"
+
+namespace lt {
+
+AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& from, const PathVertex& to) {
+    if (to.infinite) return AreaPdf(pdf.value);
+    Vec3 d = to.p - from.p;
+    float d2 = glm::dot(d, d);
+    if (!(d2 > 0.f)) return AreaPdf(0.f);
+    float c = to.onSurface() ? std::abs(glm::dot(to.ng, d)) / std::sqrt(d2) : 1.f;
+    return AreaPdf(pdf.value * c / d2);
+}
+
+int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng, TransportMode mode,
+               int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats) {
+    int n = 1;
+    SolidAnglePdf pdfFwd = pdfDir;
+    while (n < maxVertices) {
+        PathVertex& prev = path[n - 1];
+        PathVertex& v = path[n];
+        v = PathVertex{};
+        SurfaceHit hit;
+        ++stats.rays;
+        if (!scene.intersect(ray, hit)) {
+            if (mode == TransportMode::Radiance && !scene.infiniteLights().empty()) {
+                v.infinite = true;
+                v.light = scene.infiniteLights().front();
+                v.p = ray.o + ray.d * (2.f * scene.boundsRadius());
+                v.wo = -ray.d;
+                v.beta = beta;
+                v.pdfFwd = AreaPdf(pdfFwd.value);
+                v.depth = uint16_t(prev.depth + 1);
+                v.segmentLength = kInf;
+                v.pathLength = kInf;
+                ++n;
+            }
+            break;
+        }
+        v.kind = VertexKind::Surface;
+        v.p = hit.p;
+        v.ng = hit.ng;
+        v.shading = hit.shading;
+        v.wo = -ray.d;
+        v.bxdf = hit.bxdf;
+        v.light = hit.light;
+        v.beta = beta;
+        v.depth = uint16_t(prev.depth + 1);
+        v.segmentLength = glm::length(hit.p - prev.p);
+        v.pathLength = prev.pathLength + v.segmentLength;
+        v.roughness = hit.bxdf ? hit.bxdf->roughness() : 1.f;
+        v.pdfFwd = convertDensity(pdfFwd, prev, v);
+        ++n;
+        if (n >= maxVertices || !v.bxdf) break;
+
+        BsdfSample bs;
+        float uLobe = rng.uniform();
+        Vec2 u = rng.uniform2();
+        if (!v.bsdf().sample(v.wo, uLobe, u, mode, bs) || isBlack(bs.weight)) break;
+        v.lobe = bs.lobe;
+        SolidAnglePdf pdfRev = bs.pdfRev;
+        pdfFwd = bs.pdfFwd;
+        if (bs.lobe & kDelta) {
+            // A delta lobe has no density: the MIS routine skips techniques that connect here.
+            v.delta = true;
+            pdfFwd = pdfRev = SolidAnglePdf(0.f);
+        }
+        prev.pdfRev = convertDensity(pdfRev, v, prev);
+        beta *= bs.weight;
+        if (v.depth >= rrDepth) {
+            float q = std::min(0.95f, maxComp(beta));
+            if (!(rng.uniform() < q)) break;
+            beta /= q;
+        }
+        ray = scene.spawnRay(v.p, v.ng, bs.wi);
+    }
+    return n;
+}
+
+int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth, PathVertex* path,
+               WalkStats& stats) {
+    const Camera& cam = scene.camera();
+    Ray ray = cam.generateRay(raster);
+    PathVertex& c = path[0];
+    c = PathVertex{};
+    c.kind = VertexKind::Camera;
+    c.p = ray.o;
+    c.shading = Frame(cam.forward());
+    c.beta = Color(1.f);        // We cos / (pdfPos pdfDir) = 1 for a pinhole sampled by raster position
+    c.pdfFwd = AreaPdf(1.f);    // the pinhole position is a delta
+    c.roughness = 0.f;
+    if (maxVertices <= 1) return 1;
+    return randomWalk(scene, ray, Color(1.f), cam.directionPdf(ray.d), rng, TransportMode::Radiance, maxVertices,
+                      rrDepth, path, stats);
+}
+
+float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) {
+    const int n = pdfs.n;
+    auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
+    auto valid = [&](int k) {
+        if (!allowsTechnique(set, k, n - k)) return false;
+        if (k == 0) return pdfs.lightHittable;
+        if (k == n) return false;  // pinhole camera
+        return !pdfs.delta[k - 1] && !pdfs.delta[k];
+    };
+    double sum = 1.0, r = 1.0;
+    for (int k = s + 1; k <= n; ++k) {  // p_k / p_{k-1} = pL[k-1] / pC[k-1]
+        r *= remap(pdfs.fromLight[k - 1]) / remap(pdfs.fromCamera[k - 1]);
+        if (valid(k)) sum += r * r;
+    }
+    r = 1.0;
+    for (int k = s - 1; k >= 0; --k) {  // p_k / p_{k+1} = pC[k] / pL[k]
+        r *= remap(pdfs.fromCamera[k]) / remap(pdfs.fromLight[k]);
+        if (valid(k)) sum += r * r;
+    }
+    return float(1.0 / sum);
+}
+
+void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs) {
+    pdfs.n = s + t;
+    for (int j = 0; j < t; ++j) {
+        int i = s + t - 1 - j;
+        pdfs.fromCamera[i] = z[j].pdfFwd.value;
+        pdfs.fromLight[i] = z[j].pdfRev.value;
+        pdfs.delta[i] = z[j].delta;
+    }
+}
+
+void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs) {
+    for (int i = 0; i < s; ++i) {
+        pdfs.fromLight[i] = y[i].pdfFwd.value;
+        pdfs.fromCamera[i] = y[i].pdfRev.value;
+        pdfs.delta[i] = y[i].delta;
+    }
+    pdfs.lightHittable = s > 0 && y[0].light && y[0].light->isHittable();
+}
+
+// Area density at `to` of the emission of light endpoint `lv` travelling in direction travelDir.
+static AreaPdf emissionDensity(const Scene& scene, const PathVertex& lv, const Vec3& travelDir, const PathVertex& to) {
+    const Light& l = *lv.light;
+    if (l.isInfinite())  // position on the scene's disk, projected onto the receiving surface
+        return AreaPdf(l.pdfLePos(scene).value * (to.onSurface() ? std::abs(glm::dot(to.ng, travelDir)) : 1.f));
+    return convertDensity(l.pdfLeDir(lv.ng, travelDir), lv, to);
+}
+
+Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs) {
+    const PathVertex& v = z[t - 1];
+    if (!v.light || t < 2) return Color(0.f);
+    Color Le = v.light->Le(v.ng, v.wo);
+    if (isBlack(Le)) return Color(0.f);
+    gatherCameraPdfs(z, t, 0, pdfs);
+    float sel = scene.lightSelectionProb(v.light);
+    pdfs.fromLight[0] = sel * v.light->pdfLi(scene, z[t - 2].p, v.p, v.ng, -v.wo).value;
+    pdfs.delta[0] = false;
+    pdfs.lightHittable = true;
+    pdfs.fromLight[1] = emissionDensity(scene, v, v.wo, z[t - 2]).value;  // light travels along v.wo
+    return v.beta * Le;
+}
+
+bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVertex& out) {
+    if (scene.lights().empty()) return false;
+    float uSel = rng.uniform();
+    Vec2 u = rng.uniform2();
+    size_t li = scene.lightDistribution().sample(uSel);
+    const Light& l = scene.lights()[li];
+    float sel = scene.lightDistribution().probability(li);
+    LightSampleLi ls = l.sampleLi(scene, refP, u);
+    if (!(ls.pdfPos.value > 0.f) || !(sel > 0.f) || isBlack(ls.value)) return false;
+    out = PathVertex{};
+    out.kind = VertexKind::Light;
+    out.p = ls.p;
+    out.ng = l.type == LightType::Area ? ls.n : Vec3(0.f);
+    out.shading = Frame(l.type == LightType::Area ? ls.n : -ls.wi);
+    out.light = &l;
+    out.infinite = l.isInfinite();
+    out.beta = Color(1.f / (sel * ls.pdfPos.value));
+    out.pdfFwd = AreaPdf(sel * ls.pdfPos.value);
+    out.roughness = 1.f;
+    return true;
+}
+
+// Value a light endpoint sends towards direction w (radiance, intensity or irradiance).
+static Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
+    const Light& l = *a.light;
+    switch (l.type) {
+        case LightType::Area: return l.Le(a.ng, w);
+        case LightType::Spot: return l.value * l.spotFalloff(w);
+        default: return l.value;
+    }
+}
+
+bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
+             WalkStats& stats) {
+    const PathVertex& a = y[s - 1];  // light side
+    const PathVertex& b = z[t - 1];  // camera side
+    if (b.kind != VertexKind::Surface || b.infinite || !b.connectible()) return false;
+    if (a.kind == VertexKind::Surface && !a.connectible()) return false;
+    Vec3 d = a.p - b.p;
+    float dist2 = glm::dot(d, d);
+    if (!(dist2 > 0.f)) return false;
+    Vec3 wBA = d / std::sqrt(dist2);
+    if (a.infinite) dist2 = 1.f;
+
+    BsdfEval eb = b.bsdf().eval(b.wo, wBA, TransportMode::Radiance);
+    if (isBlack(eb.f)) return false;
+    Color fa;
+    BsdfEval ea;
+    if (a.kind == VertexKind::Light) {
+        fa = lightEndpointValue(a, -wBA);
+    } else {
+        ea = a.bsdf().eval(a.wo, -wBA, TransportMode::Importance);
+        fa = ea.f;
+    }
+    if (isBlack(fa)) return false;
+    float cosA = (a.kind == VertexKind::Surface) ? std::abs(glm::dot(a.shading.n, wBA))
+                 : a.onSurface()                 ? std::abs(glm::dot(a.ng, wBA))
+                                                 : 1.f;
+    float cosB = std::abs(glm::dot(b.shading.n, wBA));
+    Color contrib = a.beta * fa * (cosA * cosB / dist2) * eb.f * b.beta;
+    if (isBlack(contrib)) return false;
+    ++stats.rays;
+    bool blocked = a.infinite ? scene.occludedInfinite(b.p, b.ng, wBA) : scene.occluded(b.p, b.ng, a.p, a.ng);
+    if (blocked) return false;
+
+    // MIS pdfs: the path's own, with the four values at the connection recomputed.
+    PathPdfs& P = c.pdfs;
+    gatherLightPdfs(y, s, P);
+    gatherCameraPdfs(z, t, s, P);
+    P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, b, a).value;
+    if (s >= 2) P.fromCamera[s - 2] = convertDensity(ea.pdfRev, a, y[s - 2]).value;
+    if (a.kind == VertexKind::Light) {
+        P.fromLight[s] = emissionDensity(scene, a, -wBA, b).value;
+        P.delta[s - 1] = false;
+    } else {
+        P.fromLight[s] = convertDensity(ea.pdfFwd, a, b).value;
+    }
+    if (t >= 2) P.fromLight[s + 1] = convertDensity(eb.pdfRev, b, z[t - 2]).value;
+    c.contribution = contrib;
+    return true;
+}
+
+}  // namespace lt

@@ -1,0 +1,338 @@
+#include "core/scene.h"
+#include <fmt/core.h>
+#include <stdexcept>
+
+namespace lt {
+
+namespace {
+
+void sphereBounds(const RTCBoundsFunctionArguments* args) {
+    const auto* s = static_cast<const SphereGeom*>(args->geometryUserPtr);
+    float pad = float(s->r) * 1e-6f;
+    args->bounds_o->lower_x = float(s->cx - s->r) - pad;
+    args->bounds_o->lower_y = float(s->cy - s->r) - pad;
+    args->bounds_o->lower_z = float(s->cz - s->r) - pad;
+    args->bounds_o->upper_x = float(s->cx + s->r) + pad;
+    args->bounds_o->upper_y = float(s->cy + s->r) + pad;
+    args->bounds_o->upper_z = float(s->cz + s->r) + pad;
+}
+
+// Ray-sphere intersection in double precision (the geometric form, stable for small spheres far
+// away). Returns the nearest root in [tnear, tfar], or a negative value.
+double sphereHit(const SphereGeom& s, double ox, double oy, double oz, double dx, double dy, double dz,
+                 double tnear, double tfar) {
+    double lx = ox - s.cx, ly = oy - s.cy, lz = oz - s.cz;
+    double a = dx * dx + dy * dy + dz * dz;
+    double b = lx * dx + ly * dy + lz * dz;  // half b
+    // Distance^2 of the closest approach computed without cancellation.
+    double fx = lx - b / a * dx, fy = ly - b / a * dy, fz = lz - b / a * dz;
+    double disc = a * (s.r * s.r - (fx * fx + fy * fy + fz * fz));
+    if (disc < 0) return -1;
+    double sq = std::sqrt(disc);
+    double q = -(b + std::copysign(sq, b));
+    double c = lx * lx + ly * ly + lz * lz - s.r * s.r;
+    double t0 = q / a, t1 = (q != 0) ? c / q : t0;
+    if (t0 > t1) std::swap(t0, t1);
+    if (t0 >= tnear && t0 <= tfar) return t0;
+    if (t1 >= tnear && t1 <= tfar) return t1;
+    return -1;
+}
+
+void sphereIntersect(const RTCIntersectFunctionNArguments* args) {
+    if (!args->valid[0]) return;
+    const auto* s = static_cast<const SphereGeom*>(args->geometryUserPtr);
+    RTCRayHit* rh = reinterpret_cast<RTCRayHit*>(args->rayhit);  // N == 1 (rtcIntersect1 only)
+    RTCRay& r = rh->ray;
+    double t = sphereHit(*s, r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear, r.tfar);
+    if (t < 0) return;
+    r.tfar = float(t);
+    double px = r.org_x + t * r.dir_x - s->cx, py = r.org_y + t * r.dir_y - s->cy, pz = r.org_z + t * r.dir_z - s->cz;
+    rh->hit.Ng_x = float(px);
+    rh->hit.Ng_y = float(py);
+    rh->hit.Ng_z = float(pz);
+    rh->hit.u = 0.f;
+    rh->hit.v = 0.f;
+    rh->hit.primID = args->primID;
+    rh->hit.geomID = args->geomID;
+    rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+}
+
+void sphereOccluded(const RTCOccludedFunctionNArguments* args) {
+    if (!args->valid[0]) return;
+    const auto* s = static_cast<const SphereGeom*>(args->geometryUserPtr);
+    RTCRay* r = reinterpret_cast<RTCRay*>(args->ray);
+    double t = sphereHit(*s, r->org_x, r->org_y, r->org_z, r->dir_x, r->dir_y, r->dir_z, r->tnear, r->tfar);
+    if (t >= 0) r->tfar = -kInf;
+}
+
+void embreeError(void*, RTCError code, const char* str) {
+    fmt::print(stderr, "embree error {}: {}\n", int(code), str ? str : "");
+}
+
+float triangleArea(const MeshDesc& m, size_t tri) {
+    const Vec3& a = m.positions[m.indices[3 * tri]];
+    const Vec3& b = m.positions[m.indices[3 * tri + 1]];
+    const Vec3& c = m.positions[m.indices[3 * tri + 2]];
+    return 0.5f * glm::length(glm::cross(b - a, c - a));
+}
+
+}  // namespace
+
+Scene::Scene(const SceneDesc& desc) : desc_(desc) {
+    device_ = rtcNewDevice("");
+    if (!device_) throw std::runtime_error("could not create the Embree device");
+    rtcSetDeviceErrorFunction(device_, embreeError, nullptr);
+    scene_ = rtcNewScene(device_);
+    rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+
+    Vec3 lo(kInf), hi(-kInf);
+    meshLight_.assign(desc_.meshes.size(), -1);
+    sphereLight_.assign(desc_.spheres.size(), -1);
+
+    for (size_t i = 0; i < desc_.meshes.size(); ++i) {
+        const MeshDesc& m = desc_.meshes[i];
+        size_t nv = m.positions.size(), nt = m.indices.size() / 3;
+        RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+        auto* vb = static_cast<float*>(
+            rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+        for (size_t v = 0; v < nv; ++v) {
+            vb[3 * v] = m.positions[v].x;
+            vb[3 * v + 1] = m.positions[v].y;
+            vb[3 * v + 2] = m.positions[v].z;
+            lo = glm::min(lo, m.positions[v]);
+            hi = glm::max(hi, m.positions[v]);
+        }
+        auto* ib = static_cast<uint32_t*>(
+            rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
+        std::copy(m.indices.begin(), m.indices.end(), ib);
+        rtcCommitGeometry(g);
+        unsigned id = rtcAttachGeometry(scene_, g);
+        rtcReleaseGeometry(g);
+        if (geoms_.size() <= id) geoms_.resize(id + 1);
+        geoms_[id].mesh = int(i);
+        triangleCount_ += nt;
+    }
+    spheres_.reserve(desc_.spheres.size());
+    for (size_t i = 0; i < desc_.spheres.size(); ++i) {
+        const SphereDesc& s = desc_.spheres[i];
+        spheres_.push_back({s.center.x, s.center.y, s.center.z, s.radius});
+    }
+    for (size_t i = 0; i < desc_.spheres.size(); ++i) {
+        const SphereDesc& s = desc_.spheres[i];
+        RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+        rtcSetGeometryUserPrimitiveCount(g, 1);
+        rtcSetGeometryUserData(g, &spheres_[i]);
+        rtcSetGeometryBoundsFunction(g, sphereBounds, nullptr);
+        rtcSetGeometryIntersectFunction(g, sphereIntersect);
+        rtcSetGeometryOccludedFunction(g, sphereOccluded);
+        rtcCommitGeometry(g);
+        unsigned id = rtcAttachGeometry(scene_, g);
+        rtcReleaseGeometry(g);
+        if (geoms_.size() <= id) geoms_.resize(id + 1);
+        geoms_[id].sphere = int(i);
+        lo = glm::min(lo, s.center - Vec3(s.radius));
+        hi = glm::max(hi, s.center + Vec3(s.radius));
+    }
+    rtcCommitScene(scene_);
+
+    camera_ = std::make_unique<Camera>(desc_.camera);
+    // Bounds include the camera so that lights at infinity cover everything seen.
+    lo = glm::min(lo, camera_->position());
+    hi = glm::max(hi, camera_->position());
+    center_ = 0.5f * (lo + hi);
+    radius_ = std::max(0.5f * glm::length(hi - lo), 1e-6f);
+    // Offsets scale with the scene: the same image for a scene scaled by 1e-3 or 1e3.
+    offsetScale_ = radius_ * 2e-6f;
+
+    // Lights.
+    lights_.reserve(desc_.emitters.size());
+    std::vector<int> emitterToLight(desc_.emitters.size(), -1);
+    for (size_t e = 0; e < desc_.emitters.size(); ++e) {
+        const EmitterDesc& ed = desc_.emitters[e];
+        Light l;
+        l.value = ed.value;
+        l.position = ed.position;
+        switch (ed.type) {
+            case EmitterType::Area: l.type = LightType::Area; break;
+            case EmitterType::Point: l.type = LightType::Point; break;
+            case EmitterType::Spot:
+                l.type = LightType::Spot;
+                l.direction = glm::normalize(ed.direction);
+                l.cutoff = glm::radians(ed.cutoffAngleDeg);
+                l.beamWidth = glm::radians(std::min(ed.beamWidthDeg, ed.cutoffAngleDeg));
+                l.cosCutoff = std::cos(l.cutoff);
+                break;
+            case EmitterType::Directional:
+                l.type = LightType::Directional;
+                l.direction = glm::normalize(ed.direction);
+                break;
+            case EmitterType::Constant: l.type = LightType::Constant; break;
+        }
+        emitterToLight[e] = int(lights_.size());
+        lights_.push_back(l);
+    }
+    meshTriDist_.resize(desc_.meshes.size());
+    for (size_t i = 0; i < desc_.meshes.size(); ++i) {
+        const MeshDesc& m = desc_.meshes[i];
+        if (m.emitter < 0) continue;
+        int li = emitterToLight.at(m.emitter);
+        Light& l = lights_[li];
+        l.meshIndex = int(i);
+        std::vector<float> areas(m.indices.size() / 3);
+        double total = 0;
+        for (size_t t = 0; t < areas.size(); ++t) total += (areas[t] = triangleArea(m, t));
+        l.area = float(total);
+        meshTriDist_[i] = Distribution1D(areas);
+        meshLight_[i] = li;
+    }
+    for (size_t i = 0; i < desc_.spheres.size(); ++i) {
+        const SphereDesc& s = desc_.spheres[i];
+        if (s.emitter < 0) continue;
+        int li = emitterToLight.at(s.emitter);
+        lights_[li].sphereIndex = int(i);
+        lights_[li].area = 4.f * kPi * s.radius * s.radius;
+        sphereLight_[i] = li;
+    }
+    // Drop area emitters not attached to any shape (the loader should not produce them).
+    std::vector<float> power;
+    for (const Light& l : lights_) power.push_back(l.type == LightType::Area && l.area <= 0.f ? 0.f : l.power(*this));
+    lightDist_ = Distribution1D(power);
+    for (const Light& l : lights_)
+        if (l.type == LightType::Constant) envLights_.push_back(&l);
+}
+
+Scene::~Scene() {
+    if (scene_) rtcReleaseScene(scene_);
+    if (device_) rtcReleaseDevice(device_);
+}
+
+float Scene::lightSelectionProb(const Light* l) const {
+    if (lights_.empty()) return 0.f;
+    return lightDist_.probability(size_t(l - lights_.data()));
+}
+
+Vec3 Scene::offsetPoint(const Vec3& p, const Vec3& ng, const Vec3& towards) const {
+    // Float error of a hit point is proportional to its coordinates' magnitude; the second term
+    // covers points near the origin. Both scale with the scene.
+    float eps = 8e-6f * maxAbs(p) + offsetScale_;
+    return glm::dot(towards, ng) >= 0.f ? p + eps * ng : p - eps * ng;
+}
+
+Ray Scene::spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const {
+    Ray r;
+    r.o = offsetPoint(p, ng, d);
+    r.d = d;
+    r.tMin = 0.f;
+    r.tMax = kInf;
+    return r;
+}
+
+static void fillRay(RTCRay& r, const Ray& ray) {
+    r.org_x = ray.o.x; r.org_y = ray.o.y; r.org_z = ray.o.z;
+    r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
+    r.tnear = ray.tMin;
+    r.tfar = ray.tMax;
+    r.time = 0.f;
+    r.mask = 0xFFFFFFFFu;
+    r.id = 0;
+    r.flags = 0;
+}
+
+bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    fillRay(rh.ray, ray);
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene_, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+    const GeomInfo& gi = geoms_[rh.hit.geomID];
+    hit.t = rh.ray.tfar;
+    hit.geomId = int(rh.hit.geomID);
+    hit.primId = int(rh.hit.primID);
+    Vec3 ns;
+    if (gi.mesh >= 0) {
+        const MeshDesc& m = desc_.meshes[gi.mesh];
+        uint32_t i0 = m.indices[3 * rh.hit.primID], i1 = m.indices[3 * rh.hit.primID + 1],
+                 i2 = m.indices[3 * rh.hit.primID + 2];
+        float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.f - b1 - b2;
+        const Vec3 &p0 = m.positions[i0], &p1 = m.positions[i1], &p2 = m.positions[i2];
+        hit.p = b0 * p0 + b1 * p1 + b2 * p2;  // barycentric: more accurate than o + t d
+        hit.ng = glm::normalize(glm::cross(p1 - p0, p2 - p0));
+        ns = hit.ng;
+        if (!m.normals.empty()) {
+            Vec3 n = b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2];
+            float len = glm::length(n);
+            if (len > 0.f && std::isfinite(len)) ns = n / len;
+        }
+        if (!m.uvs.empty()) hit.uv = b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2];
+        hit.bxdf = m.bsdf >= 0 ? desc_.bsdfs[m.bsdf].get() : nullptr;
+        hit.light = meshLight_[gi.mesh] >= 0 ? &lights_[meshLight_[gi.mesh]] : nullptr;
+    } else {
+        const SphereDesc& s = desc_.spheres[gi.sphere];
+        Vec3 d = ray.o + hit.t * ray.d - s.center;
+        Vec3 n = glm::normalize(d);
+        hit.p = s.center + s.radius * n;  // re-project onto the sphere
+        if (s.flipNormals) n = -n;
+        hit.ng = ns = n;
+        Vec3 dl = glm::normalize(d);
+        hit.uv = Vec2(std::atan2(dl.y, dl.x) * (0.5f * kInvPi) + 0.5f, std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
+        hit.bxdf = s.bsdf >= 0 ? desc_.bsdfs[s.bsdf].get() : nullptr;
+        hit.light = sphereLight_[gi.sphere] >= 0 ? &lights_[sphereLight_[gi.sphere]] : nullptr;
+    }
+    // The shading normal lives on the same side as the geometric one.
+    if (glm::dot(ns, hit.ng) < 0.f) ns = -ns;
+    hit.shading = Frame(ns);
+    return true;
+}
+
+bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
+    Vec3 a = (n0 == Vec3(0.f)) ? p0 : offsetPoint(p0, n0, p1 - p0);
+    Vec3 b = (n1 == Vec3(0.f)) ? p1 : offsetPoint(p1, n1, p0 - p1);
+    Vec3 d = b - a;
+    float len = glm::length(d);
+    if (!(len > 0.f)) return false;
+    Ray r;
+    r.o = a;
+    r.d = d / len;
+    r.tMin = 0.f;
+    r.tMax = len * (1.f - 1e-5f);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRay rr;
+    fillRay(rr, r);
+    rtcOccluded1(scene_, &ctx, &rr);
+    return rr.tfar < 0.f;
+}
+
+bool Scene::occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
+    Ray r = (n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRay rr;
+    fillRay(rr, r);
+    rtcOccluded1(scene_, &ctx, &rr);
+    return rr.tfar < 0.f;
+}
+
+void Scene::sampleAreaLight(const Light& l, const Vec2& uIn, Vec3& p, Vec3& n) const {
+    Vec2 u = uIn;
+    if (l.sphereIndex >= 0) {
+        const SphereDesc& s = desc_.spheres[l.sphereIndex];
+        Vec3 d = sampleUniformSphere(u);
+        p = s.center + s.radius * d;
+        n = s.flipNormals ? -d : d;
+        return;
+    }
+    const MeshDesc& m = desc_.meshes[l.meshIndex];
+    size_t tri = meshTriDist_[l.meshIndex].sample(u.x, &u.x);  // u.x reused, remapped within the bin
+    const Vec3& a = m.positions[m.indices[3 * tri]];
+    const Vec3& b = m.positions[m.indices[3 * tri + 1]];
+    const Vec3& c = m.positions[m.indices[3 * tri + 2]];
+    Vec2 bc = sampleUniformTriangle(u);
+    p = (1.f - bc.x - bc.y) * a + bc.x * b + bc.y * c;
+    n = glm::normalize(glm::cross(b - a, c - a));
+}
+
+}  // namespace lt

@@ -1,0 +1,82 @@
+// The renderable scene: Embree 3 geometry (triangle meshes and exact analytic spheres as user
+// geometry), materials, lights, camera. Ray offsets avoid self-intersection at any scene scale.
+#pragma once
+#include <embree3/rtcore.h>
+#include <memory>
+#include <vector>
+#include "core/camera.h"
+#include "core/lights.h"
+#include "core/sampling.h"
+#include "core/scene_desc.h"
+
+namespace lt {
+
+struct SphereGeom {
+    double cx, cy, cz, r;
+};
+
+struct SurfaceHit {
+    float t = kInf;
+    Vec3 p{0.f};
+    Vec3 ng{0.f};          // geometric normal (unit, the side the shape's normal points to)
+    Frame shading;         // shading frame (n = interpolated normal, flipped to ng's hemisphere side)
+    Vec2 uv{0.f};
+    const Bxdf* bxdf = nullptr;
+    const Light* light = nullptr;  // area light on this surface, if any
+    int geomId = -1, primId = -1;
+};
+
+class Scene {
+public:
+    explicit Scene(const SceneDesc& desc);
+    ~Scene();
+    Scene(const Scene&) = delete;
+    Scene& operator=(const Scene&) = delete;
+
+    bool intersect(const Ray& ray, SurfaceHit& hit) const;
+    // Is the segment between two surface points (with geometric normals; zero normal = not on a
+    // surface, e.g. a point light) blocked? Both ends are offset, so the surfaces themselves never count.
+    bool occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
+    // A ray towards infinity (direction dir) from a surface point.
+    bool occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const;
+
+    // Ray leaving surface point p (geometric normal ng) in direction d, offset to the side of d.
+    Ray spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const;
+    Vec3 offsetPoint(const Vec3& p, const Vec3& ng, const Vec3& towards) const;
+
+    const Camera& camera() const { return *camera_; }
+    const std::vector<Light>& lights() const { return lights_; }
+    const Distribution1D& lightDistribution() const { return lightDist_; }
+    float lightSelectionProb(const Light* l) const;
+    // Lights that a ray escaping the scene sees (constant environment).
+    const std::vector<const Light*>& infiniteLights() const { return envLights_; }
+    Vec3 boundsCenter() const { return center_; }
+    float boundsRadius() const { return radius_; }
+
+    // Uniform point on the shape of an area light: position, normal.
+    void sampleAreaLight(const Light& l, const Vec2& u, Vec3& p, Vec3& n) const;
+
+    const SceneDesc& desc() const { return desc_; }
+    size_t triangleCount() const { return triangleCount_; }
+    RTCScene embreeScene() const { return scene_; }
+
+private:
+    SceneDesc desc_;
+    RTCDevice device_ = nullptr;
+    RTCScene scene_ = nullptr;
+    std::unique_ptr<Camera> camera_;
+    std::vector<Light> lights_;
+    Distribution1D lightDist_;
+    std::vector<const Light*> envLights_;
+    struct GeomInfo { int mesh = -1, sphere = -1; };
+    std::vector<SphereGeom> spheres_;  // user data of the Embree sphere geometries (double precision)
+    std::vector<GeomInfo> geoms_;                  // by Embree geomID
+    std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
+    std::vector<Distribution1D> meshTriDist_;      // area-proportional triangle choice per emitter mesh
+    Vec3 center_{0.f};
+    float radius_ = 1.f;
+    float offsetScale_ = 0.f;  // scene-relative part of the ray offset
+    size_t triangleCount_ = 0;
+};
+
+}  // namespace lt

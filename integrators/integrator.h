@@ -1,0 +1,60 @@
+// Integrators and the render loop shared by them.
+#pragma once
+#include <functional>
+#include <memory>
+#include <string>
+#include "core/film.h"
+#include "core/path.h"
+#include "core/scene.h"
+
+namespace lt {
+
+struct RenderSettings {
+    std::string integrator = "pt";  // pt (bpt, vcm, lt, ppm: see issue 3)
+    int spp = 0;                    // samples per pixel; 0 = until timeLimit
+    double timeLimit = 0.0;         // seconds; 0 = no limit
+    int threads = 0;                // 0 = all cores
+    uint64_t seed = 0;
+    int maxDepth = -1;              // segments (Mitsuba semantics); -1 = unlimited
+    int rrDepth = 5;
+    bool hideEmitters = false;
+    bool quiet = false;             // no progress bar
+    // PT only: "mis" (NEE and emitter hits, power heuristic), "nee" (emitter hits only where NEE
+    // cannot connect: seen from the camera or after a delta lobe), "bsdf" (emitter hits only).
+    std::string ptStrategy = "mis";
+};
+
+struct RenderStats {
+    uint64_t spp = 0;
+    uint64_t samples = 0;
+    uint64_t rays = 0;
+    uint64_t invalidSamples = 0;
+    double seconds = 0.0;
+};
+
+// One iteration/pass of an integrator over the whole image. A pass with index `pass` draws the
+// pixel samples with index `pass` (RNG streams depend only on seed, pixel, sample index).
+class Integrator {
+public:
+    virtual ~Integrator() = default;
+    virtual std::string name() const = 0;
+    // Renders sample index `pass` of every pixel in rows [y0, y1) x cols [x0, x1).
+    virtual void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
+                            WalkStats& stats) const = 0;
+};
+
+std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& settings);
+// Names accepted by makeIntegrator.
+std::string supportedIntegrators();
+
+// Runs passes until spp or timeLimit is reached, in parallel over tiles. Deterministic for a
+// given seed whatever the thread count. `progress` (may be empty) is called after each pass.
+struct Progress {
+    uint64_t passesDone, passesTotal;  // passesTotal = 0 in time mode
+    double seconds, timeLimit;
+    uint64_t samples;
+};
+Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,
+                  const std::function<void(const Progress&)>& progress = {});
+
+}  // namespace lt

@@ -1,0 +1,61 @@
+#include <tbb/blocked_range2d.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <atomic>
+#include <chrono>
+#include <stdexcept>
+#include "integrators/integrator.h"
+
+namespace lt {
+
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s);
+
+std::string supportedIntegrators() { return "pt"; }
+
+std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
+    if (s.integrator == "pt") return makePathTracer(s);
+    throw std::invalid_argument("unknown integrator '" + s.integrator + "' (supported: " + supportedIntegrators() + ")");
+}
+
+Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,
+                  const std::function<void(const Progress&)>& progress) {
+    auto integrator = makeIntegrator(settings);
+    const Camera& cam = scene.camera();
+    Film film(cam.width(), cam.height(), scene.desc().camera.filter);
+    std::unique_ptr<tbb::global_control> limit;
+    if (settings.threads > 0)
+        limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, settings.threads);
+
+    using Clock = std::chrono::steady_clock;
+    auto start = Clock::now();
+    auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+    std::atomic<uint64_t> rays{0};
+    uint64_t passes = 0;
+    const uint64_t totalPasses = settings.spp > 0 ? uint64_t(settings.spp) : 0;
+    constexpr int kTile = 16;
+    while (true) {
+        if (totalPasses > 0 && passes >= totalPasses) break;
+        if (totalPasses == 0 && (settings.timeLimit <= 0.0 || elapsed() >= settings.timeLimit)) break;
+        uint32_t pass = uint32_t(passes);
+        tbb::parallel_for(tbb::blocked_range2d<int>(0, cam.height(), kTile, 0, cam.width(), kTile),
+                          [&](const tbb::blocked_range2d<int>& r) {
+                              WalkStats ws;
+                              integrator->renderTile(scene, film, pass, r.cols().begin(), r.rows().begin(),
+                                                     r.cols().end(), r.rows().end(), ws);
+                              rays += ws.rays;
+                          });
+        ++passes;
+        if (progress)
+            progress(Progress{passes, totalPasses, elapsed(), settings.timeLimit,
+                              passes * uint64_t(cam.width()) * cam.height()});
+        if (totalPasses > 0 && settings.timeLimit > 0.0 && elapsed() >= settings.timeLimit) break;
+    }
+    stats.seconds = elapsed();
+    stats.spp = passes;
+    stats.samples = passes * uint64_t(cam.width()) * cam.height();
+    stats.rays = rays.load();
+    stats.invalidSamples = film.invalidSamples();
+    return film.develop(passes);
+}
+
+}  // namespace lt

@@ -1,0 +1,222 @@
+// Path tracer: known answers (furnace, point light over a plane), agreement of its techniques,
+// determinism across thread counts, independence of scene scale.
+#include <catch2/catch.hpp>
+#include <cstring>
+#include "integrators/integrator.h"
+#include "scene_builders.h"
+#include "stats.h"
+
+using namespace lt;
+using namespace lt::test;
+
+namespace {
+
+Image renderDesc(const SceneDesc& d, RenderSettings s, RenderStats* statsOut = nullptr) {
+    Scene scene(d);
+    RenderStats stats;
+    s.quiet = true;
+    Image img = renderImage(scene, s, stats);
+    if (statsOut) *statsOut = stats;
+    return img;
+}
+
+double imageMean(const Image& img) {
+    double m = 0;
+    for (const Color& c : img.pixels) m += (double(c.x) + c.y + c.z) / 3.0;
+    return m / double(img.pixels.size());
+}
+
+// K independent renders (seeds 1..K) -> per-block sample statistics.
+std::vector<SampleStats> blockStats(const SceneDesc& d, RenderSettings s, int k, int blocks) {
+    std::vector<std::vector<double>> perBlock(size_t(blocks) * blocks);
+    for (int i = 0; i < k; ++i) {
+        s.seed = 1000 + i;
+        auto m = blockMeans(renderDesc(d, s), blocks, blocks);
+        for (size_t b = 0; b < m.size(); ++b) perBlock[b].push_back(m[b]);
+    }
+    std::vector<SampleStats> out;
+    for (auto& v : perBlock) out.push_back(sampleStats(v));
+    return out;
+}
+
+// Number of blocks whose means differ at family-wise significance alpha (Sidak over all blocks).
+int differingBlocks(const std::vector<SampleStats>& a, const std::vector<SampleStats>& b, double alpha,
+                    double* worst = nullptr) {
+    double perTest = sidak(alpha, int(a.size()));
+    int bad = 0;
+    double w = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+        double df;
+        double t = welchT(a[i], b[i], df);
+        double crit = studentTCritical(perTest, std::max(df, 1.0));
+        w = std::max(w, std::abs(t) / crit);
+        if (std::abs(t) > crit) ++bad;
+    }
+    if (worst) *worst = w;
+    return bad;
+}
+
+}  // namespace
+
+TEST_CASE("white furnace: closed emitting diffuse sphere has radiance sum albedo^k", "[pt]") {
+    // Every pixel sees L = sum_{k=0}^{D-1} a^k (D = max_depth segments): 1/(1-a) when unlimited.
+    // The furnace's only variance comes from Russian roulette and the light/BSDF sampling of a
+    // constant integrand; the image mean over 32x32 pixels x 32 spp is compared with the known
+    // value within 4 standard errors (two-sided significance ~6e-5; the standard error is
+    // measured from the pixel spread). A floor of 3e-5 relative covers float precision: MIS weights
+    // of emitter hits are recomputed from hit points whose error (the ray offset, ~1e-5 relative)
+    // matters on very short segments; measured deficit 1.3e-5 with 256 spp.
+    const float albedo = 0.5f;
+    for (int depth : {-1, 1, 2, 3}) {
+        double expected = depth < 0 ? 1.0 / (1.0 - albedo) : (1.0 - std::pow(albedo, depth)) / (1.0 - albedo);
+        RenderSettings s;
+        s.spp = 32;
+        s.maxDepth = depth;
+        s.seed = 3;
+        Image img = renderDesc(furnace(32, albedo), s);
+        double m = imageMean(img), v = 0;
+        for (const Color& c : img.pixels) v += sqr(float((c.x + c.y + c.z) / 3.0 - m));
+        double se = std::sqrt(v / (img.pixels.size() - 1) / img.pixels.size());
+        INFO("max_depth " << depth << ": mean " << m << " expected " << expected << " se " << se);
+        CHECK(std::abs(m - expected) <= 4.0 * se + 3e-5 * expected);
+    }
+}
+
+TEST_CASE("point light over a diffuse plane matches the analytic radiance", "[pt]") {
+    // L(p) = rho/pi * I cos(theta) / d^2 at every plane point. The only noise is the position of
+    // the sample inside the pixel (box filter), so each pixel is compared with the analytic
+    // function averaged over the pixel (16x16 midpoint rule), with a tolerance of 4.5 standard
+    // errors of that footprint average (its spread over the pixel / sqrt(spp)): family-wise
+    // significance ~0.2% over the 256 pixels (Sidak), plus 1e-4 relative for the quadrature.
+    SceneDesc d;
+    const float rho = 0.8f, I = 5.f;
+    const Vec3 lightPos(0.3f, 1.5f, -0.2f);
+    d.bsdfs.push_back(makeDiffuse(Color(rho)));
+    d.meshes.push_back(quad(Vec3(-5, 0, -5), Vec3(0, 0, 10), Vec3(10, 0, 0), 0));  // y = 0, normal +y
+    EmitterDesc e;
+    e.type = EmitterType::Point;
+    e.position = lightPos;
+    e.value = Color(I);
+    d.emitters.push_back(e);
+    const int res = 16;
+    d.camera = lookAt(Vec3(0, 2, 2), Vec3(0, 0, 0), Vec3(0, 1, 0), 50.f, res, res);
+    RenderSettings s;
+    s.spp = 256;
+    s.maxDepth = 2;
+    Image img = renderDesc(d, s);
+    Camera cam(d.camera);
+    int checked = 0;
+    for (int y = 0; y < res; ++y)
+        for (int x = 0; x < res; ++x) {
+            double sum = 0, sum2 = 0;
+            const int q = 16;
+            for (int j = 0; j < q; ++j)
+                for (int i = 0; i < q; ++i) {
+                    Ray r = cam.generateRay(Vec2(x + (i + 0.5f) / q, y + (j + 0.5f) / q));
+                    double v = 0;
+                    if (r.d.y < 0) {
+                        float t = -r.o.y / r.d.y;
+                        Vec3 p = r.o + t * r.d;
+                        Vec3 l = lightPos - p;
+                        float d2 = glm::dot(l, l);
+                        v = rho / kPi * I * (l.y / std::sqrt(d2)) / d2;
+                    }
+                    sum += v;
+                    sum2 += v * v;
+                }
+            double expected = sum / (q * q);
+            double sd = std::sqrt(std::max(0.0, sum2 / (q * q) - expected * expected));
+            double tol = 4.5 * sd / std::sqrt(double(s.spp)) + 1e-4 * expected;
+            INFO("pixel " << x << "," << y << ": " << img.at(x, y).x << " vs " << expected << " tol " << tol);
+            CHECK(std::abs(img.at(x, y).x - expected) <= tol);
+            ++checked;
+        }
+    CHECK(checked == res * res);
+}
+
+TEST_CASE("PT with NEE only, BSDF sampling only and MIS agree", "[pt][statistical]") {
+    // Per-block Welch t-tests (4x4 blocks) between strategies, variance from K = 12 independent
+    // seeds each; family-wise significance 1% (Sidak over the 16 blocks of each pair).
+    SceneDesc d = cornellBox(24, makeRoughConductor(MicrofacetType::GGX, 0.2f, 0.2f, Color(0.2f, 0.9f, 1.1f),
+                                                    Color(3.9f, 2.4f, 2.1f), Color(1.f)));
+    RenderSettings s;
+    s.spp = 8;
+    s.maxDepth = 4;
+    const int k = 12, blocks = 4;
+    s.ptStrategy = "mis";
+    auto mis = blockStats(d, s, k, blocks);
+    s.ptStrategy = "nee";
+    auto nee = blockStats(d, s, k, blocks);
+    s.ptStrategy = "bsdf";
+    s.spp = 32;  // BSDF sampling alone is much noisier; more samples keep the test's power
+    auto bsdf = blockStats(d, s, k, blocks);
+    double w1, w2, w3;
+    CHECK(differingBlocks(mis, nee, 0.01, &w1) == 0);
+    CHECK(differingBlocks(mis, bsdf, 0.01, &w2) == 0);
+    CHECK(differingBlocks(nee, bsdf, 0.01, &w3) == 0);
+    INFO("worst |t|/critical: " << w1 << " " << w2 << " " << w3);
+    // The test has power: a 3% change in the light's power is detected between MIS renders.
+    SceneDesc brighter = d;
+    brighter.emitters[0].value *= 1.03f;
+    s.ptStrategy = "mis";
+    s.spp = 8;
+    auto misBright = blockStats(brighter, s, k, blocks);
+    CHECK(differingBlocks(mis, misBright, 0.01) > 0);
+}
+
+TEST_CASE("images are bit-identical for 1 and 2 threads", "[pt][determinism]") {
+    SceneDesc d = cornellBox(32, makeDiffuse(Color(0.5f)));
+    RenderSettings s;
+    s.spp = 4;
+    s.seed = 42;
+    s.threads = 1;
+    Image a = renderDesc(d, s);
+    s.threads = 2;
+    Image b = renderDesc(d, s);
+    REQUIRE(a.pixels.size() == b.pixels.size());
+    CHECK(std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(Color)) == 0);
+    s.seed = 43;  // and the seed matters
+    Image c = renderDesc(d, s);
+    CHECK(std::memcmp(a.pixels.data(), c.pixels.data(), a.pixels.size() * sizeof(Color)) != 0);
+}
+
+TEST_CASE("the same image for a scene scaled by 1e-3 and 1e3", "[pt][statistical]") {
+    // Radiance does not change with scale, so the images must agree: per-block Welch t-tests at
+    // family-wise 1% (Sidak over 16 blocks), K = 10 seeds each. Broken ray offsets show up as
+    // self-shadowing (too dark) at one of the scales.
+    BxdfPtr panel = makeDiffuse(Color(0.5f));
+    RenderSettings s;
+    s.spp = 4;
+    s.maxDepth = 4;
+    auto small = blockStats(cornellBox(24, panel, 1e-3f), s, 10, 4);
+    auto large = blockStats(cornellBox(24, panel, 1e3f), s, 10, 4);
+    auto unit = blockStats(cornellBox(24, panel, 1.f), s, 10, 4);
+    CHECK(differingBlocks(small, large, 0.01) == 0);
+    CHECK(differingBlocks(small, unit, 0.01) == 0);
+}
+
+TEST_CASE("renders never contain NaN, Inf or negative pixels", "[pt]") {
+    for (BxdfPtr m : {makeDielectric(1.5f), makeConductor(Color(0.2f), Color(3.f), Color(1.f)),
+                      makeRoughDielectric(MicrofacetType::GGX, 1e-4f, 1e-4f, 1.f),
+                      makeRoughConductor(MicrofacetType::Beckmann, 0.01f, 0.01f, Color(0.2f), Color(3.f), Color(1.f))}) {
+        SceneDesc d = cornellBox(16, m);
+        EmitterDesc spot;
+        spot.type = EmitterType::Spot;
+        spot.position = Vec3(0, 0.8f, 0);
+        spot.direction = Vec3(0, -1, 0);
+        spot.value = Color(3.f);
+        d.emitters.push_back(spot);
+        RenderSettings s;
+        s.spp = 4;
+        RenderStats st;
+        Image img = renderDesc(d, s, &st);
+        for (const Color& c : img.pixels) {
+            REQUIRE(isFinite(c));
+            REQUIRE(c.x >= 0.f);
+            REQUIRE(c.y >= 0.f);
+            REQUIRE(c.z >= 0.f);
+        }
+        CHECK(st.invalidSamples == 0);
+        CHECK(imageMean(img) > 0.0);
+    }
+}
