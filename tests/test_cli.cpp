@@ -1,0 +1,138 @@
+// The render CLI end to end: a good render writes finite EXR + PNG and statistics; every bad
+// scene in tests/data/bad gives a clear error (file, line, the expected words), exit code != 0,
+// writes no output and does not crash; bad command lines exit with 1.
+#include <catch2/catch.hpp>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sys/wait.h>
+#include "core/image.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Run {
+    int code = -1;
+    std::string output;
+};
+
+Run run(const std::string& args) {
+    std::string cmd = std::string(LT_RENDER_BIN) + " " + args + " 2>&1";
+    Run r;
+    FILE* p = popen(cmd.c_str(), "r");
+    REQUIRE(p);
+    std::array<char, 4096> buf;
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
+    int status = pclose(p);
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return r;
+}
+
+fs::path tempDir(const std::string& name) {
+    fs::path d = fs::temp_directory_path() / ("lt_cli_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+}
+
+}  // namespace
+
+TEST_CASE("render writes a finite EXR, a PNG and statistics for the default scene", "[cli]") {
+    fs::path dir = tempDir("good");
+    fs::path out = dir / "cb.exr", stats = dir / "stats.json";
+    Run r = run(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml -D res=24 --spp 2 --quiet -o " + out.string() +
+                " --stats-json " + stats.string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    REQUIRE(fs::exists(out));
+    CHECK(fs::file_size(dir / "cb.png") > 0);
+    lt::Image img = lt::readImage(out.string());
+    CHECK(img.width == 24);
+    CHECK(img.height == 24);
+    double sum = 0;
+    for (const auto& c : img.pixels) {
+        REQUIRE(lt::isFinite(c));
+        sum += c.x + c.y + c.z;
+    }
+    CHECK(sum > 0);
+    std::ifstream f(stats);
+    std::string json((std::istreambuf_iterator<char>(f)), {});
+    for (const char* key : {"\"spp\": 2", "\"seconds\"", "\"samples_per_second\"", "\"rays_per_second\"",
+                            "\"invalid_samples\": 0"})
+        CHECK(json.find(key) != std::string::npos);
+    // The closing summary line.
+    CHECK(std::regex_search(r.output, std::regex(R"(2 spp, [0-9.]+ s, .*samples/s, .*rays/s, 0 invalid samples)")));
+}
+
+TEST_CASE("every bad scene gives a clear error naming file and line, exit != 0, no output", "[cli][loader]") {
+    fs::path dir = tempDir("bad");
+    int files = 0;
+    for (const auto& entry : fs::directory_iterator(fs::path(LT_SOURCE_DIR) / "tests/data/bad")) {
+        if (entry.path().extension() != ".xml") continue;
+        ++files;
+        std::ifstream f(entry.path());
+        std::string text((std::istreambuf_iterator<char>(f)), {});
+        std::smatch m;
+        REQUIRE(std::regex_search(text, m, std::regex(R"(expect-line:\s*(\d+))")));
+        std::string line = m[1];
+        REQUIRE(std::regex_search(text, m, std::regex(R"(expect:\s*([^\n]*?)\s*(-->|\n))")));
+        std::string words = m[1];
+        fs::path out = dir / (entry.path().stem().string() + ".exr");
+        Run r = run(entry.path().string() + " --spp 1 --quiet -o " + out.string());
+        INFO(entry.path().filename().string() << ": exit " << r.code << "\n" << r.output);
+        CHECK(r.code == 2);
+        CHECK(r.output.find(entry.path().filename().string() + ":" + line) != std::string::npos);
+        size_t pos = 0;
+        while (pos < words.size()) {
+            size_t semi = words.find(';', pos);
+            std::string w = words.substr(pos, semi == std::string::npos ? std::string::npos : semi - pos);
+            w = std::regex_replace(w, std::regex(R"(^\s+|\s+$)"), "");
+            if (!w.empty()) CHECK(r.output.find(w) != std::string::npos);
+            if (semi == std::string::npos) break;
+            pos = semi + 1;
+        }
+        CHECK_FALSE(fs::exists(out));
+        CHECK_FALSE(fs::exists(dir / (entry.path().stem().string() + ".png")));
+    }
+    CHECK(files >= 20);
+}
+
+TEST_CASE("bad command lines exit with 1 and name the problem", "[cli]") {
+    std::string scene = std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml --quiet -o /tmp/lt_cli_never.exr ";
+    struct Case { std::string args, words; };
+    for (const Case& c : {Case{"--spp -3", "spp"}, Case{"--spp 2 --time 1", "excludes"},
+                          Case{"--integrator nope", "nope"}, Case{"--no-such-flag", "no-such-flag"},
+                          Case{"-D novalue", "name=value"}, Case{"--max-depth 1000", "max-depth"}}) {
+        Run r = run(scene + c.args);
+        INFO(c.args << "\n" << r.output);
+        CHECK(r.code == 1);
+        CHECK(r.output.find(c.words) != std::string::npos);
+    }
+    Run missing = run("/no/such/scene.xml --quiet");
+    CHECK(missing.code == 2);
+    CHECK(missing.output.find("/no/such/scene.xml") != std::string::npos);
+    CHECK_FALSE(fs::exists("/tmp/lt_cli_never.exr"));
+}
+
+TEST_CASE("the external public scenes render at low resolution", "[cli][external]") {
+    fs::path dir = tempDir("external");
+    fs::path ext = fs::path(LT_SOURCE_DIR) / "scenes/external";
+    for (const char* s : {"bitterli-cornell-box/scene.xml", "bitterli-veach-mis/scene.xml", "mitsuba3-cbox/cbox-rgb.xml"}) {
+        fs::path out = dir / (fs::path(s).parent_path().string() + ".exr");
+        Run r = run((ext / s).string() + " -D resx=32 -D resy=24 -D res=32 --spp 4 --max-depth 4 --quiet -o " +
+                    out.string());
+        INFO(s << "\n" << r.output);
+        REQUIRE(r.code == 0);
+        lt::Image img = lt::readImage(out.string());
+        double sum = 0;
+        for (const auto& c : img.pixels) {
+            REQUIRE(lt::isFinite(c));
+            sum += c.x + c.y + c.z;
+        }
+        CHECK(sum / img.pixels.size() > 1e-3);  // lit, not black
+    }
+}
