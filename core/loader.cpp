@@ -1,0 +1,607 @@
+// Scene loader: interprets the Mitsuba XML tree (core/loader_xml.*) into a SceneDesc. Meshes are
+// read by core/mesh_io.*; materials are built through the factories of bsdf/bsdf.h.
+#include "core/loader.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <set>
+#include "bsdf/ior.h"
+#include "core/loader_xml.h"
+#include "core/mesh_io.h"
+
+namespace lt {
+
+namespace {
+
+using xml::Elem;
+using xml::Props;
+using xml::joinList;
+
+const std::vector<std::string> kBsdfTypes = {"diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric",
+                                             "twosided"};
+const std::vector<std::string> kShapeTypes = {"obj", "ply", "serialized", "rectangle", "cube", "disk", "sphere"};
+const std::vector<std::string> kEmitterTypes = {"area (inside a shape)", "point", "spot", "directional", "constant"};
+const std::vector<std::string> kIntegratorTypes = {"path", "bdpt", "vcm", "ptracer", "ppm", "sppm (as ppm)"};
+
+bool isIn(const std::vector<std::string>& v, const std::string& s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+
+// Inverse transpose of the linear part, up to a positive factor; defined for singular matrices too
+// (e.g. a rectangle scaled to zero along its normal keeps its normal).
+glm::mat3 normalMatrix(const Mat4& m) {
+    glm::mat3 l(m);
+    glm::mat3 cof(glm::cross(l[1], l[2]), glm::cross(l[2], l[0]), glm::cross(l[0], l[1]));
+    return glm::determinant(l) < 0.f ? -cof : cof;
+}
+
+class Builder {
+public:
+    Builder(xml::Document& d, const std::string& path) : doc_(d) {
+        out_.path = path;
+        out_.warnings = doc_.warnings;
+    }
+
+    SceneDesc run() {
+        for (auto& cp : doc_.root->children) {
+            const Elem& e = *cp;
+            if (e.tag == "integrator") integrator(e);
+            else if (e.tag == "sensor") sensor(e);
+            else if (e.tag == "bsdf") bsdfIndex(e);
+            else if (e.tag == "shape") shape(e);
+            else if (e.tag == "emitter") topEmitter(e);
+            else
+                xml::fail(e, fmt::format("unsupported element <{}> at the top level of the scene (supported: integrator, "
+                                         "sensor, bsdf, shape, emitter, default, include, path)", e.tag));
+        }
+        for (const Elem* a : declaredAreas_)
+            if (!referencedAreas_.count(a)) warn(*a, "area emitter declared with an id but used by no shape: ignored");
+        if (!sawSensor_) out_.warnings.push_back(fmt::format("{}: no <sensor>: using the default camera", out_.path));
+        if (out_.emitters.empty()) out_.warnings.push_back(fmt::format("{}: the scene has no emitter", out_.path));
+        return std::move(out_);
+    }
+
+private:
+    xml::Document& doc_;
+    SceneDesc out_;
+    std::map<const Elem*, BxdfPtr> bxdfs_;
+    std::map<const Elem*, int> bsdfIndices_;
+    std::set<const Elem*> building_;
+    std::vector<const Elem*> declaredAreas_;
+    std::set<const Elem*> referencedAreas_;
+    int defaultBsdf_ = -1;
+    bool sawSensor_ = false, sawIntegrator_ = false;
+
+    void warn(const Elem& e, const std::string& msg) {
+        out_.warnings.push_back(fmt::format("{}: {}: {}", e.where(), e.describe(), msg));
+    }
+
+    const Elem& deref(const Elem& e) {
+        if (e.tag != "ref") return e;
+        for (auto& [k, v] : e.attrs)
+            if (k != "id" && k != "name") xml::fail(e, fmt::format("unexpected attribute '{}' (allowed: id, name)", k));
+        const std::string* id = e.attr("id");
+        if (!id) xml::fail(e, "a <ref> needs an id attribute");
+        auto it = doc_.ids.find(*id);
+        if (it == doc_.ids.end()) {
+            std::vector<std::string> ids;
+            for (auto& [k, v] : doc_.ids) ids.push_back(k);
+            xml::fail(e, fmt::format("unknown id '{}' (ids defined in the scene: {})", *id,
+                                     ids.empty() ? std::string("none") : joinList(ids)));
+        }
+        return *it->second;
+    }
+
+    static void noObjects(const Props& p, const char* what) {
+        if (!p.objects.empty())
+            xml::fail(*p.objects.front(), fmt::format("unsupported element inside {} ({})", p.owner.describe(), what));
+    }
+
+    // ---- integrator ------------------------------------------------------------------------
+    void integrator(const Elem& e) {
+        if (sawIntegrator_) xml::fail(e, "more than one <integrator>");
+        sawIntegrator_ = true;
+        std::string t = e.type();
+        IntegratorDesc& I = out_.integrator;
+        bool known = isIn({"path", "bdpt", "vcm", "ptracer", "ppm", "sppm"}, t);
+        if (!known)
+            warn(e, fmt::format("integrator type '{}' is not supported: falling back to 'path' (the CLI's integrator; "
+                                "supported: {}); max_depth, rr_depth and hide_emitters are kept, other parameters "
+                                "ignored", t, joinList(kIntegratorTypes)));
+        Props p(e);
+        if (t == "sppm") {
+            warn(e, "sppm is mapped to ppm (progressive photon mapping)");
+            p.ignore({"photon_count", "granularity", "max_passes", "samples_per_pass"}, &out_.warnings);
+        }
+        I.type = !known ? "path" : t == "sppm" ? "ppm" : t;
+        I.maxDepth = p.getInt("max_depth", -1);
+        if (I.maxDepth < -1) p.failAt("max_depth", fmt::format("must be -1 (unlimited) or >= 0 (got {})", I.maxDepth));
+        I.rrDepth = p.getInt("rr_depth", 5);
+        if (I.rrDepth < 1) p.failAt("rr_depth", fmt::format("must be >= 1 (got {})", I.rrDepth));
+        I.hideEmitters = p.getBool("hide_emitters", false);
+        if (!known) return;
+        // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
+        // with a warning where the scene's own integrator does not use them.
+        if (p.has("initial_radius") && p.has("radius")) p.failAt("radius", "give either radius or initial_radius");
+        const char* rname = p.has("initial_radius") ? "initial_radius" : "radius";
+        if (p.has(rname)) {
+            float r = p.getFloat(rname, -1.f);
+            p.requireNonNegative(rname, r);
+            I.radius = r > 0.f ? r : -1.f;  // 0: derived from the scene size
+        }
+        I.radiusAlpha = p.getFloat("alpha", 0.75f);
+        if (!(I.radiusAlpha > 0.f && I.radiusAlpha <= 1.f))
+            p.failAt("alpha", fmt::format("must be in (0, 1] (got {})", I.radiusAlpha));
+        if (I.type != "vcm" && I.type != "ppm" && (p.has(rname) || p.has("alpha")))
+            warn(e, fmt::format("radius and alpha are used only by vcm and ppm: ignored by {}", I.type));
+        if (I.type == "bdpt") p.ignore({"light_image", "sample_direct"}, &out_.warnings);
+        if (I.type == "ptracer") p.ignore({"samples_per_pass"}, &out_.warnings);
+        noObjects(p, "an integrator has no nested plugins here");
+        p.finish();
+    }
+
+    // ---- sensor, film, sampler, filter -----------------------------------------------------
+    void sensor(const Elem& e) {
+        if (sawSensor_) {
+            warn(e, "only the first <sensor> is used");
+            return;
+        }
+        sawSensor_ = true;
+        if (e.type() != "perspective")
+            xml::fail(e, fmt::format("unsupported sensor type '{}' (supported: perspective)", e.type()));
+        Props p(e);
+        CameraDesc& C = out_.camera;
+        std::string axis = xml::lower(p.getString("fov_axis", "x"));
+        static const std::pair<const char*, FovAxis> axes[] = {{"x", FovAxis::X}, {"y", FovAxis::Y},
+            {"smaller", FovAxis::Smaller}, {"larger", FovAxis::Larger}, {"diagonal", FovAxis::Diagonal}};
+        bool found = false;
+        for (auto& [n, a] : axes)
+            if (axis == n) C.fovAxis = a, found = true;
+        if (!found) p.failAt("fov_axis", fmt::format("unknown value '{}' (supported: x, y, smaller, larger, diagonal)", axis));
+        if (p.has("fov") && p.has("focal_length")) p.failAt("fov", "give either fov or focal_length");
+        if (p.has("fov")) {
+            C.fovDeg = p.getFloat("fov", 45.f);
+            if (!(C.fovDeg > 0.f && C.fovDeg < 180.f))
+                p.failAt("fov", fmt::format("must be in (0, 180) degrees (got {})", C.fovDeg));
+        } else {
+            // Mitsuba: 35 mm film equivalent focal length (default 50mm), along the diagonal.
+            float f = 50.f;
+            if (p.isString("focal_length")) {
+                std::string s = p.getString("focal_length", "50mm");
+                if (s.size() > 2 && s.substr(s.size() - 2) == "mm") s.resize(s.size() - 2);
+                auto n = xml::parseNumbers(s);
+                if (!n || n->size() != 1) p.failAt("focal_length", "expected a length like \"50mm\"");
+                f = float((*n)[0]);
+            } else {
+                f = p.getFloat("focal_length", 50.f);
+            }
+            p.requirePositive("focal_length", f);
+            C.fovDeg = glm::degrees(2.f * std::atan(std::sqrt(36.f * 36.f + 24.f * 24.f) / (2.f * f)));
+            C.fovAxis = FovAxis::Diagonal;
+        }
+        C.nearClip = p.getFloat("near_clip", 0.01f);
+        p.requirePositive("near_clip", C.nearClip);
+        float farClip = p.getFloat("far_clip", 10000.f);
+        if (!(farClip > C.nearClip)) p.failAt("far_clip", fmt::format("must be > near_clip (got {})", farClip));
+        p.requirePositive("focus_distance", p.getFloat("focus_distance", 1.f));  // pinhole: ignored
+        C.toWorld = p.getTransform("to_world");
+        glm::mat3 l(C.toWorld);
+        float err = std::abs(C.toWorld[0][3]) + std::abs(C.toWorld[1][3]) + std::abs(C.toWorld[2][3]) +
+                    std::abs(C.toWorld[3][3] - 1.f);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) err += std::abs(glm::dot(l[i], l[j]) - (i == j ? 1.f : 0.f));
+        if (!(err < 1e-3f))
+            p.failAt("to_world", "the camera transform must be rigid (rotations, mirroring, translations; no scale or shear)");
+        bool sawFilm = false, sawSampler = false;
+        for (const Elem* o : p.objects) {
+            if (o->tag == "film" && !sawFilm) film(*o), sawFilm = true;
+            else if (o->tag == "sampler" && !sawSampler) sampler(*o), sawSampler = true;
+            else xml::fail(*o, "unexpected element inside <sensor> (supported: one film, one sampler)");
+        }
+        p.finish();
+    }
+
+    void film(const Elem& e) {
+        Props p(e);
+        std::string t = e.type();
+        CameraDesc& C = out_.camera;
+        if (t != "hdrfilm")
+            warn(e, fmt::format("film type '{}' is not supported: using hdrfilm (the renderer writes the HDR image and a "
+                                "PNG beside it)", t));
+        C.width = p.getInt("width", 768);
+        C.height = p.getInt("height", 576);
+        if (C.width <= 0 || C.width > 65536) p.failAt("width", fmt::format("must be in 1..65536 (got {})", C.width));
+        if (C.height <= 0 || C.height > 65536) p.failAt("height", fmt::format("must be in 1..65536 (got {})", C.height));
+        bool sawFilter = false;
+        for (const Elem* o : p.objects) {
+            if (o->tag == "rfilter" && !sawFilter) rfilter(*o), sawFilter = true;
+            else xml::fail(*o, "unexpected element inside <film> (supported: one rfilter)");
+        }
+        if (!sawFilter) {
+            warn(e, "no <rfilter>: Mitsuba's default is gaussian, which is not supported: using box");
+            C.filter = FilterType::Box;
+        }
+        if (t != "hdrfilm") return;  // parameters of other films are not checked
+        p.ignore({"file_format", "pixel_format", "component_format", "banner", "high_quality_edges"});
+        p.finish();
+    }
+
+    void rfilter(const Elem& e) {
+        Props p(e);
+        std::string t = e.type();
+        if (t == "box" || t == "tent") {
+            out_.camera.filter = t == "box" ? FilterType::Box : FilterType::Tent;
+            float r = p.getFloat("radius", t == "box" ? 0.5f : 1.f);
+            if (r != (t == "box" ? 0.5f : 1.f))
+                warn(e, fmt::format("filter radius {} is not supported: using {}", r, t == "box" ? "0.5" : "1"));
+            noObjects(p, "a filter has no nested plugins");
+            p.finish();
+        } else {
+            warn(e, fmt::format("rfilter type '{}' is not supported: using box (supported: box, tent)", t));
+            out_.camera.filter = FilterType::Box;
+        }
+    }
+
+    void sampler(const Elem& e) {
+        Props p(e);
+        std::string t = e.type();
+        if (t != "independent")
+            warn(e, fmt::format("sampler type '{}' is not supported: using independent (sample_count is kept)", t));
+        out_.sampleCount = p.getInt("sample_count", 4);
+        if (out_.sampleCount <= 0) p.failAt("sample_count", fmt::format("must be >= 1 (got {})", out_.sampleCount));
+        int seed = p.getInt("seed", 0);
+        if (seed < 0) p.failAt("seed", fmt::format("must be >= 0 (got {})", seed));
+        out_.seed = uint64_t(seed);
+        if (t == "independent") {
+            noObjects(p, "a sampler has no nested plugins");
+            p.finish();
+        }
+    }
+
+    // ---- bsdfs -----------------------------------------------------------------------------
+    int bsdfIndex(const Elem& e) {
+        auto it = bsdfIndices_.find(&e);
+        if (it != bsdfIndices_.end()) return it->second;
+        BxdfPtr b = bxdf(e);
+        int idx = int(out_.bsdfs.size());
+        out_.bsdfs.push_back(b);
+        bsdfIndices_[&e] = idx;
+        return idx;
+    }
+
+    int defaultBsdf() {
+        if (defaultBsdf_ < 0) {
+            defaultBsdf_ = int(out_.bsdfs.size());
+            out_.bsdfs.push_back(makeDiffuse(Color(0.5f)));
+        }
+        return defaultBsdf_;
+    }
+
+    BxdfPtr bxdf(const Elem& e) {
+        auto it = bxdfs_.find(&e);
+        if (it != bxdfs_.end()) return it->second;
+        if (building_.count(&e)) xml::fail(e, "the bsdf refers to itself (reference cycle)");
+        building_.insert(&e);
+        BxdfPtr b;
+        try {
+            b = buildBsdf(e);
+        } catch (const SceneError&) {
+            throw;
+        } catch (const std::exception& ex) {
+            xml::fail(e, fmt::format("cannot build the material: {}", ex.what()));
+        }
+        building_.erase(&e);
+        bxdfs_[&e] = b;
+        return b;
+    }
+
+    float ior(Props& p, const std::string& name, float def) {
+        if (!p.has(name)) return def;
+        if (p.isString(name)) {
+            std::string s = p.getString(name, "");
+            std::optional<float> v = namedIor(s);
+            if (!v) v = namedIor(xml::lower(s));
+            if (!v) p.failAt(name, fmt::format("unknown IOR name '{}' (known: {})", s, joinList(namedIorList())));
+            return *v;
+        }
+        float v = p.getFloat(name, def);
+        p.requirePositive(name, v);
+        return v;
+    }
+
+    void roughness(Props& p, MicrofacetType& dist, float& au, float& av, MaskingModel& masking) {
+        std::string d = xml::lower(p.getString("distribution", "beckmann"));
+        if (d == "ggx") dist = MicrofacetType::GGX;
+        else if (d == "beckmann") dist = MicrofacetType::Beckmann;
+        else p.failAt("distribution", fmt::format("unknown distribution '{}' (supported: ggx, beckmann)", d));
+        bool hasA = p.has("alpha"), hasU = p.has("alpha_u"), hasV = p.has("alpha_v");
+        if (hasA && (hasU || hasV)) p.failAt("alpha", "give either alpha or alpha_u and alpha_v");
+        if (hasU != hasV) p.failAt(hasU ? "alpha_v" : "alpha_u", "alpha_u and alpha_v must be given together");
+        au = av = p.getFloat("alpha", 0.1f);
+        p.requireNonNegative("alpha", au);
+        if (hasU) {
+            au = p.getFloat("alpha_u", 0.1f);
+            av = p.getFloat("alpha_v", 0.1f);
+            p.requireNonNegative("alpha_u", au);
+            p.requireNonNegative("alpha_v", av);
+        }
+        std::string m = xml::lower(p.getString("masking", "smith"));
+        if (m == "smith") masking = MaskingModel::Smith;
+        else if (m == "vcavity") masking = MaskingModel::VCavity;
+        else p.failAt("masking", fmt::format("unknown masking model '{}' (supported: smith, vcavity)", m));
+        p.getBool("sample_visible", true);  // sampling strategy only: accepted and ignored
+    }
+
+    Color nonNegColor(Props& p, const std::string& name, const Color& def) {
+        Color c = p.getColor(name, def);
+        p.requireNonNegative(name, c);
+        return c;
+    }
+
+    BxdfPtr buildBsdf(const Elem& e) {
+        std::string t = e.type();
+        if (!isIn(kBsdfTypes, t))
+            xml::fail(e, fmt::format("unsupported bsdf type '{}' (supported: {})", t, joinList(kBsdfTypes)));
+        Props p(e);
+        if (t == "twosided") {
+            if (p.objects.size() != 1)
+                xml::fail(e, p.objects.empty() ? "twosided needs one nested <bsdf> (or <ref>)"
+                                               : "twosided with different front and back BSDFs is not supported: give one");
+            const Elem& inner = deref(*p.objects[0]);
+            if (inner.tag != "bsdf") xml::fail(*p.objects[0], "twosided needs a nested <bsdf>");
+            p.finish();
+            return makeTwoSided(bxdf(inner));
+        }
+        noObjects(p, "textures and nested plugins are not supported; use constant values");
+        if (t == "diffuse") {
+            Color r = nonNegColor(p, "reflectance", Color(0.5f));
+            if (maxComp(r) > 1.f) warn(e, "reflectance > 1 does not conserve energy");
+            p.finish();
+            return makeDiffuse(r);
+        }
+        bool rough = t.rfind("rough", 0) == 0;
+        MicrofacetType dist = MicrofacetType::Beckmann;
+        float au = 0.f, av = 0.f;
+        MaskingModel masking = MaskingModel::Smith;
+        if (rough) roughness(p, dist, au, av, masking);
+        Color specR = nonNegColor(p, "specular_reflectance", Color(1.f));
+        if (t == "conductor" || t == "roughconductor") {
+            bool hasEta = p.has("eta"), hasK = p.has("k"), hasMat = p.has("material");
+            if (hasMat && (hasEta || hasK)) p.failAt("material", "give either material or eta and k");
+            if (hasEta != hasK) p.failAt(hasEta ? "k" : "eta", "eta and k must be given together");
+            ConductorIor c;
+            if (hasEta) {
+                c.eta = nonNegColor(p, "eta", Color(0.f));
+                c.k = nonNegColor(p, "k", Color(1.f));
+            } else {
+                // Mitsuba 3's default is a perfect mirror ("none"); Mitsuba 0.6's is copper.
+                std::string name = p.getString("material", e.src->legacy ? "Cu" : "none");
+                std::optional<ConductorIor> preset = conductorPreset(name);
+                if (!preset)
+                    p.failAt("material", fmt::format("unknown conductor '{}' (known: {})", name,
+                                                     joinList(conductorPresetList())));
+                c = *preset;
+            }
+            float ext = ior(p, "ext_eta", 1.f);
+            c.eta /= ext;
+            c.k /= ext;
+            p.finish();
+            if (rough) return makeRoughConductor(dist, au, av, c.eta, c.k, specR, masking);
+            return makeConductor(c.eta, c.k, specR);
+        }
+        float intIor = ior(p, "int_ior", 1.5046f), extIor = ior(p, "ext_ior", 1.000277f);
+        Color specT = nonNegColor(p, "specular_transmittance", Color(1.f));
+        p.finish();
+        if (rough) return makeRoughDielectric(dist, au, av, intIor / extIor, specR, specT, masking);
+        return makeDielectric(intIor / extIor, specR, specT);
+    }
+
+    // ---- emitters --------------------------------------------------------------------------
+    EmitterDesc areaDesc(const Elem& e) {
+        Props p(e);
+        EmitterDesc d;
+        d.type = EmitterType::Area;
+        d.source = e.where();
+        d.value = nonNegColor(p, "radiance", Color(1.f));
+        p.ignore({"sampling_weight"});
+        noObjects(p, "textures are not supported");
+        p.finish();
+        return d;
+    }
+
+    void topEmitter(const Elem& e) {
+        std::string t = e.type();
+        if (t == "area") {
+            if (!e.attr("id"))
+                xml::fail(e, "an area emitter must be inside a <shape> (or have an id and be referenced by shapes)");
+            areaDesc(e);  // checks it now
+            declaredAreas_.push_back(&e);
+            return;
+        }
+        if (!isIn({"point", "spot", "directional", "constant"}, t))
+            xml::fail(e, fmt::format("unsupported emitter type '{}' (supported: {})", t, joinList(kEmitterTypes)));
+        Props p(e);
+        EmitterDesc d;
+        d.source = e.where();
+        if (t == "point" || t == "spot") {
+            d.type = t == "point" ? EmitterType::Point : EmitterType::Spot;
+            d.value = nonNegColor(p, "intensity", Color(1.f));
+            Mat4 m = p.getTransform("to_world");
+            if (t == "point" && p.has("position")) {
+                if (p.has("to_world")) p.failAt("position", "give either position or to_world");
+                d.position = p.getPoint("position", Vec3(0.f));
+            } else {
+                d.position = transformPoint(m, Vec3(0.f));
+            }
+            if (t == "spot") {
+                d.cutoffAngleDeg = p.getFloat("cutoff_angle", 20.f);
+                if (!(d.cutoffAngleDeg > 0.f && d.cutoffAngleDeg <= 90.f))
+                    p.failAt("cutoff_angle", fmt::format("must be in (0, 90] degrees (got {})", d.cutoffAngleDeg));
+                d.beamWidthDeg = p.getFloat("beam_width", 0.75f * d.cutoffAngleDeg);
+                p.requirePositive("beam_width", d.beamWidthDeg);
+                if (d.beamWidthDeg > d.cutoffAngleDeg) {
+                    warn(e, "beam_width > cutoff_angle: clamped to cutoff_angle");
+                    d.beamWidthDeg = d.cutoffAngleDeg;
+                }
+                Vec3 dir = transformVector(m, Vec3(0, 0, 1));
+                if (!(glm::length(dir) > 0.f)) p.failAt("to_world", "the transform maps +Z to zero");
+                d.direction = glm::normalize(dir);
+            }
+        } else if (t == "directional") {
+            d.type = EmitterType::Directional;
+            d.value = nonNegColor(p, "irradiance", Color(1.f));
+            Mat4 m = p.getTransform("to_world");
+            Vec3 dir = transformVector(m, Vec3(0, 0, 1));
+            if (p.has("direction")) {
+                if (p.has("to_world")) p.failAt("direction", "give either direction or to_world");
+                dir = p.getPoint("direction", Vec3(0, 0, 1));
+            }
+            if (!(glm::length(dir) > 0.f)) p.failAt(p.has("direction") ? "direction" : "to_world", "zero direction");
+            d.direction = glm::normalize(dir);
+        } else {
+            d.type = EmitterType::Constant;
+            d.value = nonNegColor(p, "radiance", Color(1.f));
+        }
+        p.ignore({"sampling_weight"});
+        noObjects(p, "textures and nested plugins are not supported");
+        p.finish();
+        out_.emitters.push_back(d);
+    }
+
+    // ---- shapes ----------------------------------------------------------------------------
+    MeshDesc loadMeshFile(Props& p, const std::string& t) {
+        std::string filename = p.getString("filename", "");
+        if (!p.has("filename")) xml::fail(p.owner, fmt::format("parameter 'filename' is required for a {} shape", t));
+        std::string tried;
+        std::string path = xml::resolveFile(doc_, p.owner, filename, tried);
+        if (path.empty()) p.failAt("filename", fmt::format("mesh file '{}' not found (looked for: {})", filename, tried));
+        bool flipTex = t == "obj" ? p.getBool("flip_tex_coords", true) : false;
+        int shapeIndex = t == "serialized" ? p.getInt("shape_index", 0) : 0;
+        if (shapeIndex < 0) p.failAt("shape_index", fmt::format("must be >= 0 (got {})", shapeIndex));
+        try {
+            bool fileFaceNormals = false;
+            MeshDesc m = t == "obj"   ? readObj(path, flipTex)
+                         : t == "ply" ? readPly(path)
+                                      : readSerialized(path, shapeIndex, &fileFaceNormals);
+            validateMesh(m, path);
+            if (m.indices.empty()) throw MeshError(fmt::format("{}: the file contains no triangles", path));
+            if (fileFaceNormals) m.normals.clear();
+            else if (m.normals.empty()) computeVertexNormals(m);  // as Mitsuba does
+            return m;
+        } catch (const MeshError& ex) {
+            p.failAt(t == "serialized" && std::string(ex.what()).find("shape_index") != std::string::npos ? "shape_index"
+                                                                                                         : "filename",
+                     ex.what());
+        }
+    }
+
+    int shapeEmitter(const Elem* emitter) {
+        if (!emitter) return -1;
+        if (emitter->type() != "area")
+            xml::fail(*emitter, fmt::format("only area emitters can be attached to a shape (got '{}')", emitter->type()));
+        out_.emitters.push_back(areaDesc(*emitter));
+        return int(out_.emitters.size()) - 1;
+    }
+
+    void shape(const Elem& e) {
+        std::string t = e.type();
+        if (!isIn(kShapeTypes, t))
+            xml::fail(e, fmt::format("unsupported shape type '{}' (supported: {})", t, joinList(kShapeTypes)));
+        Props p(e);
+        Mat4 M = p.getTransform("to_world");
+        bool flip = p.getBool("flip_normals", false);
+        bool faceNormals = p.getBool("face_normals", false);
+        int bsdf = -1;
+        const Elem* emitter = nullptr;
+        for (const Elem* o : p.objects) {
+            const Elem& target = deref(*o);
+            if (target.tag == "bsdf") {
+                if (bsdf >= 0) xml::fail(*o, "a shape can have only one bsdf");
+                bsdf = bsdfIndex(target);
+            } else if (target.tag == "emitter") {
+                if (emitter) xml::fail(*o, "a shape can have only one emitter");
+                emitter = &target;
+                if (&target != o) referencedAreas_.insert(&target);
+            } else {
+                xml::fail(*o, fmt::format("unsupported element inside <shape> (supported: bsdf, emitter, or a ref to "
+                                          "either; this is a <{}>)", target.tag));
+            }
+        }
+        std::string name = e.attr("id") ? *e.attr("id") : t;
+        if (t == "sphere") {
+            Vec3 c = p.getPoint("center", Vec3(0.f));
+            float r = p.getFloat("radius", 1.f);
+            p.requirePositive("radius", r);
+            p.finish();
+            glm::mat3 l(M);
+            float s = glm::length(l[0]);
+            float err = std::abs(M[0][3]) + std::abs(M[1][3]) + std::abs(M[2][3]) + std::abs(M[3][3] - 1.f);
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) err += std::abs(glm::dot(l[i], l[j]) - (i == j ? s * s : 0.f)) / (s * s);
+            if (!(s > 0.f) || !(err < 1e-3f))
+                p.failAt("to_world", "a sphere's to_world may only translate, rotate and scale uniformly");
+            SphereDesc sd;
+            sd.name = name;
+            sd.center = transformPoint(M, c);
+            sd.radius = r * s;
+            sd.flipNormals = flip;
+            sd.bsdf = bsdf >= 0 ? bsdf : defaultBsdf();
+            sd.emitter = shapeEmitter(emitter);
+            out_.spheres.push_back(sd);
+            return;
+        }
+        MeshDesc m = (t == "rectangle") ? makeRectangle()
+                     : (t == "cube")    ? makeCube()
+                     : (t == "disk")    ? makeDisk(128)
+                                        : loadMeshFile(p, t);
+        p.finish();
+        if (faceNormals) m.normals.clear();
+        glm::mat3 N = normalMatrix(M);
+        for (auto& v : m.positions) v = transformPoint(M, v);
+        bool badNormal = false;
+        for (auto& n : m.normals) {
+            n = N * n;
+            float len = glm::length(n);
+            badNormal = badNormal || !(len > 0.f) || !std::isfinite(len);
+            n = len > 0.f ? n / len : n;
+        }
+        if (badNormal) {
+            warn(e, "some vertex normals are zero: recomputed from the geometry");
+            m.normals.clear();
+            computeVertexNormals(m);
+        }
+        if (flip) {
+            for (size_t i = 0; i + 2 < m.indices.size(); i += 3) std::swap(m.indices[i + 1], m.indices[i + 2]);
+            for (auto& n : m.normals) n = -n;
+        }
+        if (emitter) {
+            double area = meshArea(m);
+            if (!(area > 0.0))
+                xml::fail(e, fmt::format("zero-area emitter shape: the area light on this {} has area {}", t, area));
+        }
+        if (m.indices.empty()) {
+            warn(e, "the mesh has no triangles: ignored");
+            return;
+        }
+        m.name = e.attr("id") ? name : m.name;
+        m.bsdf = bsdf >= 0 ? bsdf : defaultBsdf();
+        m.emitter = shapeEmitter(emitter);
+        out_.meshes.push_back(std::move(m));
+    }
+};
+
+}  // namespace
+
+SceneDesc loadScene(const std::string& path, const std::map<std::string, std::string>& defines) {
+    try {
+        xml::Document doc = xml::parseDocument(path, defines);
+        return Builder(doc, path).run();
+    } catch (const SceneError&) {
+        throw;
+    } catch (const std::bad_alloc&) {
+        throw SceneError(fmt::format("{}: out of memory while loading the scene (a corrupt mesh file?)", path));
+    } catch (const std::exception& ex) {
+        throw SceneError(fmt::format("{}: {}", path, ex.what()));
+    }
+}
+
+}  // namespace lt

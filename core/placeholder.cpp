@@ -1,1 +1,0 @@
-namespace lt { int corePlaceholder() { return 0; } }
