@@ -49,10 +49,13 @@ std::string supportedIntegrators();
 
 // Runs passes until spp or timeLimit is reached, in parallel over tiles. Deterministic for a
 // given seed whatever the thread count. `progress` (may be empty) is called after each pass.
+// The callback may develop the film (film->develop(passesDone)) for progressive error curves;
+// time spent inside the callback is excluded from `seconds` and from the time limit.
 struct Progress {
     uint64_t passesDone, passesTotal;  // passesTotal = 0 in time mode
     double seconds, timeLimit;
     uint64_t samples;
+    const Film* film;
 };
 Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,
                   const std::function<void(const Progress&)>& progress = {});

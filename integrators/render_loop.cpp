@@ -28,7 +28,8 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
 
     using Clock = std::chrono::steady_clock;
     auto start = Clock::now();
-    auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+    double excluded = 0.0;  // seconds spent in the progress callback
+    auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count() - excluded; };
     std::atomic<uint64_t> rays{0};
     uint64_t passes = 0;
     const uint64_t totalPasses = settings.spp > 0 ? uint64_t(settings.spp) : 0;
@@ -45,9 +46,12 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
                               rays += ws.rays;
                           });
         ++passes;
-        if (progress)
+        if (progress) {
+            auto c0 = Clock::now();
             progress(Progress{passes, totalPasses, elapsed(), settings.timeLimit,
-                              passes * uint64_t(cam.width()) * cam.height()});
+                              passes * uint64_t(cam.width()) * cam.height(), &film});
+            excluded += std::chrono::duration<double>(Clock::now() - c0).count();
+        }
         if (totalPasses > 0 && settings.timeLimit > 0.0 && elapsed() >= settings.timeLimit) break;
     }
     stats.seconds = elapsed();
