@@ -1,0 +1,103 @@
+// Smooth (delta) and rough (microfacet) conductors, one-sided like Mitsuba 3: black when
+// wo.z <= 0 or wi.z <= 0. eta + i k is the complex IOR relative to the exterior.
+#include "bsdf/bsdf.h"
+#include "bsdf/fresnel.h"
+#include "bsdf/microfacet.h"
+
+namespace lt {
+
+namespace {
+
+class ConductorBxdf final : public Bxdf {
+public:
+    ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
+                  const Color& k, const Color& specR)
+        : rough_(rough), dist_(dist), masking_(masking), au_(rough ? au : 0.f), av_(rough ? av : 0.f), eta_(eta),
+          k_(k), specR_(specR) {}
+
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode, const Roughness* rough) const override {
+        BsdfEval e;
+        const EffectiveAlpha a = effectiveAlpha(au_, av_, rough);
+        if (a.delta || !(wo.z > 0.f) || !(wi.z > 0.f)) return e;
+        const Microfacet mf(dist_, a.u, a.v, masking_);
+        Vec3 h = wo + wi;
+        const float l2 = glm::dot(h, h);
+        if (!(l2 > 0.f)) return e;
+        h /= std::sqrt(l2);
+        const float base = microfacetReflection(mf, wo, wi);
+        if (!(base > 0.f)) return e;
+        // Fresnel at the average of wo.h and wi.h (equal up to rounding): exactly reciprocal.
+        e.f = specR_ * fresnelConductor(0.5f * (glm::dot(wo, h) + glm::dot(wi, h)), eta_, k_) * base;
+        e.pdfFwd = SolidAnglePdf(pdfReflect(mf, wo, h));
+        e.pdfRev = SolidAnglePdf(pdfReflect(mf, wi, h));
+        return e;
+    }
+
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& out,
+                const Roughness* rough) const override {
+        if (!(wo.z > 0.f)) return false;
+        const EffectiveAlpha a = effectiveAlpha(au_, av_, rough);
+        if (a.delta) {
+            out.wi = Vec3(-wo.x, -wo.y, wo.z);
+            out.weight = specR_ * fresnelConductor(wo.z, eta_, k_);
+            out.pdfFwd = out.pdfRev = SolidAnglePdf(1.f);
+            out.lobe = kReflection | kDelta;
+            out.eta = 1.f;
+            return true;
+        }
+        const Microfacet mf(dist_, a.u, a.v, masking_);
+        float uExtra = uLobe;
+        const Vec3 m = mf.sampleVisible(wo, u, uExtra);
+        const float wom = glm::dot(wo, m);
+        if (!(wom > 0.f)) return false;
+        const Vec3 wi = reflectAbout(wo, m);
+        if (!(wi.z > 0.f)) return false;
+        const BsdfEval e = eval(wo, wi, mode, rough);
+        if (!(e.pdfFwd.value > 0.f) || !std::isfinite(e.pdfFwd.value)) return false;
+        const float g1 = mf.G1(wo, m);
+        if (!(g1 > 0.f)) return false;
+        out.wi = wi;
+        // f cos / pdf = F D G2 / (4 cos_o) / (G1(wo) D / (4 cos_o)) = F G2 / G1(wo): no overflow.
+        out.weight = specR_ * fresnelConductor(wom, eta_, k_) * (mf.G2(wo, wi, m) / g1);
+        out.pdfFwd = e.pdfFwd;
+        out.pdfRev = e.pdfRev;
+        out.lobe = kReflection | kGlossy;
+        out.eta = 1.f;
+        return true;
+    }
+
+    uint32_t flags() const override { return rough_ ? (kReflection | kGlossy) : (kReflection | kDelta); }
+    float roughness() const override { return rough_ ? scalarRoughness(au_, av_) : 0.f; }
+    Roughness alpha() const override { return {au_, av_}; }
+    std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }
+
+private:
+    // Density of sampling the reflection of w about h: D_w(h) / (4 w.h).
+    static float pdfReflect(const Microfacet& mf, const Vec3& w, const Vec3& h) {
+        const float wh = glm::dot(w, h);
+        if (!(wh > 0.f)) return 0.f;
+        return mf.pdfVisible(w, h) / (4.f * wh);
+    }
+
+    bool rough_;
+    MicrofacetType dist_;
+    MaskingModel masking_;
+    float au_, av_;
+    Color eta_, k_, specR_;
+};
+
+}  // namespace
+
+BxdfPtr makeConductor(const Color& eta, const Color& k, const Color& specularReflectance) {
+    // A smooth conductor given a roughness override becomes a GGX/Smith rough conductor.
+    return std::make_shared<ConductorBxdf>(false, MicrofacetType::GGX, 0.f, 0.f, MaskingModel::Smith, eta, k,
+                                           specularReflectance);
+}
+
+BxdfPtr makeRoughConductor(MicrofacetType dist, float alphaU, float alphaV, const Color& eta, const Color& k,
+                           const Color& specularReflectance, MaskingModel masking) {
+    const bool rough = std::max(alphaU, alphaV) >= kMinAlpha;
+    return std::make_shared<ConductorBxdf>(rough, dist, alphaU, alphaV, masking, eta, k, specularReflectance);
+}
+
+}  // namespace lt

@@ -1,0 +1,206 @@
+// Smooth (delta) and rough (Walter et al. 2007) dielectric interfaces.
+//
+// eta = int_ior / ext_ior; the interior is the z < 0 side. When wo.z < 0 the walk is inside:
+// all directions are negated and eta inverted, so the code below always works with wo above.
+// The lobe (reflection / refraction) is chosen with the Fresnel reflectance F of the sampled
+// microfacet (of the macro normal for the smooth case); specularReflectance/Transmittance only
+// scale the values. BsdfSample::eta = n_wi / n_wo for refraction, 1 for reflection.
+// An index-matched interface (eta == 1) has no reflection and a straight-through delta
+// refraction, rough or not.
+#include "bsdf/bsdf.h"
+#include "bsdf/fresnel.h"
+#include "bsdf/microfacet.h"
+
+namespace lt {
+
+namespace {
+
+class DielectricBxdf final : public Bxdf {
+public:
+    DielectricBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, float eta,
+                   const Color& specR, const Color& specT)
+        : rough_(rough), dist_(dist), masking_(masking), au_(rough ? au : 0.f), av_(rough ? av : 0.f), eta_(eta),
+          specR_(specR), specT_(specT) {}
+
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode mode, const Roughness* rough) const override {
+        BsdfEval e;
+        const EffectiveAlpha a = effectiveAlpha(au_, av_, rough);
+        if (a.delta || eta_ == 1.f || wo.z == 0.f || wi.z == 0.f) return e;
+        const Microfacet mf(dist_, a.u, a.v, masking_);
+        if (wo.z * wi.z > 0.f) {
+            const Vec3 h = glm::normalize(wo + wi);
+            e.f = specR_ * (reflectionFresnel(wo, wi, h) * microfacetReflection(mf, wo, wi));
+        } else {
+            const RefractionGeometry g = refractionGeometry(wo, wi);
+            if (!g.valid) return e;
+            e.f = specT_ * ((1.f - g.F) * microfacetTransmission(mf, wo, wi, eta_, mode));
+        }
+        e.pdfFwd = SolidAnglePdf(pdfImpl(mf, wo, wi));
+        e.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo));
+        return e;
+    }
+
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& out,
+                const Roughness* rough) const override {
+        if (wo.z == 0.f) return false;
+        const float s = wo.z > 0.f ? 1.f : -1.f;
+        const Vec3 o = wo * s;
+        const float etaRel = s > 0.f ? eta_ : 1.f / eta_;
+        if (eta_ == 1.f) {  // index matched: straight through
+            out.wi = -wo;
+            out.weight = specT_;
+            out.pdfFwd = out.pdfRev = SolidAnglePdf(1.f);
+            out.lobe = kTransmission | kDelta;
+            out.eta = 1.f;
+            return true;
+        }
+        const EffectiveAlpha a = effectiveAlpha(au_, av_, rough);
+        if (a.delta) {
+            float cosT;
+            const float F = fresnelDielectric(o.z, etaRel, &cosT);
+            if (uLobe < F) {
+                out.wi = Vec3(-wo.x, -wo.y, wo.z);
+                out.weight = specR_;  // F / P(reflection) = 1
+                out.pdfFwd = out.pdfRev = SolidAnglePdf(F);
+                out.lobe = kReflection | kDelta;
+                out.eta = 1.f;
+            } else {
+                Vec3 t;
+                if (!refractAbout(o, Vec3(0.f, 0.f, 1.f), etaRel, t)) return false;
+                out.wi = t * s;
+                out.weight = specT_ * (mode == TransportMode::Radiance ? 1.f / (etaRel * etaRel) : 1.f);
+                out.pdfFwd = out.pdfRev = SolidAnglePdf(1.f - F);
+                out.lobe = kTransmission | kDelta;
+                out.eta = etaRel;
+            }
+            return true;
+        }
+        const Microfacet mf(dist_, a.u, a.v, masking_);
+        float uSel = uLobe;
+        const Vec3 m = mf.sampleVisible(o, u, uSel);
+        const float om = glm::dot(o, m);
+        if (!(om > 0.f)) return false;
+        const float F = fresnelDielectric(om, etaRel);
+        Vec3 i;
+        bool reflect = uSel < F;
+        if (reflect) {
+            i = reflectAbout(o, m);
+            if (!(i.z > 0.f)) return false;
+        } else {
+            if (!refractAbout(o, m, etaRel, i) || !(i.z < 0.f)) return false;
+        }
+        const Vec3 wi = i * s;
+        const BsdfEval e = eval(wo, wi, mode, rough);
+        if (!(e.pdfFwd.value > 0.f) || !std::isfinite(e.pdfFwd.value)) return false;
+        const float g1 = mf.G1(o, m);
+        if (!(g1 > 0.f)) return false;
+        // f cos / pdf simplifies to spec * G2 / G1(wo) (times 1/etap^2 for radiance refraction).
+        const float ratio = mf.G2(o, i, m) / g1;
+        out.wi = wi;
+        out.pdfFwd = e.pdfFwd;
+        out.pdfRev = e.pdfRev;
+        if (reflect) {
+            out.weight = specR_ * ratio;
+            out.lobe = kReflection | kGlossy;
+            out.eta = 1.f;
+        } else {
+            out.weight = specT_ * (ratio * (mode == TransportMode::Radiance ? 1.f / (etaRel * etaRel) : 1.f));
+            out.lobe = kTransmission | kGlossy;
+            out.eta = etaRel;
+        }
+        return true;
+    }
+
+    uint32_t flags() const override {
+        if (eta_ == 1.f) return kTransmission | kDelta;
+        return rough_ ? (kReflection | kTransmission | kGlossy) : (kReflection | kTransmission | kDelta);
+    }
+    float roughness() const override { return rough_ ? scalarRoughness(au_, av_) : 0.f; }
+    Roughness alpha() const override { return {au_, av_}; }
+    std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }
+
+private:
+    // Fresnel of a reflection pair, symmetric in (wo, wi): wo.h == wi.h up to rounding, and
+    // near the critical angle F is steep, so the average is used for bitwise reciprocity.
+    float reflectionFresnel(const Vec3& wo, const Vec3& wi, const Vec3& h) const {
+        const float side = wo.z > 0.f ? 1.f : -1.f;
+        const float c = 0.5f * (glm::dot(wo, h) + glm::dot(wi, h)) * side;  // h faces wo's side
+        return fresnelDielectric(c, eta_);
+    }
+
+    // Generalised half vector (facing +z) and Fresnel reflectance of a refraction pair, computed
+    // from the unordered pair {wo, wi} (so forward and reverse evaluations agree bitwise). F is
+    // evaluated from the optically thinner side, where it is well conditioned (from the denser
+    // side, cos(theta_t) = sqrt(1 - sin^2) cancels catastrophically near the critical angle).
+    struct RefractionGeometry {
+        Vec3 h{0, 0, 1};
+        float F = 1.f;
+        bool valid = false;
+    };
+    RefractionGeometry refractionGeometry(const Vec3& a, const Vec3& b) const {
+        RefractionGeometry g;
+        const Vec3& up = a.z > 0.f ? a : b;
+        const Vec3& dn = a.z > 0.f ? b : a;
+        Vec3 h = up + dn * eta_;
+        const float l2 = glm::dot(h, h);
+        if (!(l2 > 0.f)) return g;
+        h /= std::sqrt(l2);
+        if (h.z < 0.f) h = -h;
+        g.h = h;
+        const float cu = glm::dot(up, h), cd = glm::dot(dn, h);
+        g.valid = cu > 0.f && cd < 0.f;
+        g.F = eta_ > 1.f ? fresnelDielectric(cu, eta_) : fresnelDielectric(cd, eta_);
+        return g;
+    }
+
+    // Density (solid angle, including the Fresnel lobe choice) with which sample() produces wi
+    // from wo.
+    float pdfImpl(const Microfacet& mf, const Vec3& wo, const Vec3& wi) const {
+        if (wo.z == 0.f || wi.z == 0.f) return 0.f;
+        const float s = wo.z > 0.f ? 1.f : -1.f;
+        const Vec3 o = wo * s;  // visible normals are sampled from wo flipped to the upper side
+        if (wo.z * wi.z > 0.f) {
+            const Vec3 h = glm::normalize(wo + wi) * s;  // facing +z in the flipped frame
+            const float oh = glm::dot(o, h);
+            if (!(oh > 0.f)) return 0.f;
+            return mf.pdfVisible(o, h) / (4.f * oh) * reflectionFresnel(wo, wi, glm::normalize(wo + wi));
+        }
+        const RefractionGeometry g = refractionGeometry(wo, wi);
+        if (!g.valid) return 0.f;
+        // h is the same vector in the flipped frame (D is centrally symmetric, h faces +z).
+        const float oh = glm::dot(o, g.h);
+        if (!(oh > 0.f)) return 0.f;
+        // Jacobian dw_m / dw_i = n_wi^2 |wi.h| / (n_wo wo.h + n_wi wi.h)^2 (n_up = 1, n_down = eta).
+        const float nwi = wi.z > 0.f ? 1.f : eta_;
+        const Vec3& up = wo.z > 0.f ? wo : wi;
+        const Vec3& dn = wo.z > 0.f ? wi : wo;
+        const float denom = glm::dot(up, g.h) + eta_ * glm::dot(dn, g.h);
+        if (denom == 0.f) return 0.f;
+        return mf.pdfVisible(o, g.h) * nwi * nwi * std::abs(glm::dot(wi, g.h)) / (denom * denom) * (1.f - g.F);
+    }
+
+    bool rough_;
+    MicrofacetType dist_;
+    MaskingModel masking_;
+    float au_, av_;
+    float eta_;
+    Color specR_, specT_;
+};
+
+}  // namespace
+
+BxdfPtr makeDielectric(float eta, const Color& specularReflectance, const Color& specularTransmittance) {
+    // With a roughness override a smooth dielectric becomes a GGX/Smith rough dielectric.
+    return std::make_shared<DielectricBxdf>(false, MicrofacetType::GGX, 0.f, 0.f, MaskingModel::Smith, eta,
+                                            specularReflectance, specularTransmittance);
+}
+
+BxdfPtr makeRoughDielectric(MicrofacetType dist, float alphaU, float alphaV, float eta,
+                            const Color& specularReflectance, const Color& specularTransmittance,
+                            MaskingModel masking) {
+    const bool rough = std::max(alphaU, alphaV) >= kMinAlpha;
+    return std::make_shared<DielectricBxdf>(rough, dist, alphaU, alphaV, masking, eta, specularReflectance,
+                                            specularTransmittance);
+}
+
+}  // namespace lt

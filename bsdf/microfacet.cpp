@@ -1,0 +1,244 @@
+#include "bsdf/microfacet.h"
+
+#include <cmath>
+
+namespace lt {
+
+namespace {
+
+constexpr double kSqrtPiD = 1.77245385090551602730;
+constexpr double kPiD = 3.14159265358979323846;
+constexpr float kOneMinusEps = 0x1.fffffep-1f;
+
+// Inverse error function in double precision: rational initial guess (Giles 2010) refined by
+// Newton steps on erf(y) - z.
+double erfInv(double z) {
+    z = std::clamp(z, -1.0 + 1e-15, 1.0 - 1e-15);
+    double w = -std::log((1.0 - z) * (1.0 + z));
+    double p;
+    if (w < 5.0) {
+        w -= 2.5;
+        p = 2.81022636e-08;
+        p = 3.43273939e-07 + p * w;
+        p = -3.5233877e-06 + p * w;
+        p = -4.39150654e-06 + p * w;
+        p = 0.00021858087 + p * w;
+        p = -0.00125372503 + p * w;
+        p = -0.00417768164 + p * w;
+        p = 0.246640727 + p * w;
+        p = 1.50140941 + p * w;
+    } else {
+        w = std::sqrt(w) - 3.0;
+        p = -0.000200214257;
+        p = 0.000100950558 + p * w;
+        p = 0.00134934322 + p * w;
+        p = -0.00367342844 + p * w;
+        p = 0.00573950773 + p * w;
+        p = -0.0076224613 + p * w;
+        p = 0.00943887047 + p * w;
+        p = 1.00167406 + p * w;
+        p = 2.83297682 + p * w;
+    }
+    double y = p * z;
+    for (int i = 0; i < 3; ++i) {
+        double err = std::erf(y) - z;
+        double deriv = 2.0 / kSqrtPiD * std::exp(-y * y);
+        if (deriv <= 0.0) break;
+        y -= err / deriv;
+    }
+    return y;
+}
+
+// Visible-slope x-coordinate for the isotropic Beckmann distribution (alpha = 1) seen from a
+// direction at polar angle theta in the xz plane (Heitz & d'Eon 2014). The unnormalised CDF is
+//   C(x) = cos(theta) (1 + erf(x)) / 2 + sin(theta) exp(-x^2) / (2 sqrt(pi)),  x <= cot(theta),
+// inverted with a bracketed Newton iteration in double precision.
+double sampleBeckmannVisibleSlopeX(double cosT, double sinT, double u) {
+    const double cotT = cosT / sinT;
+    auto C = [&](double x) { return cosT * std::erfc(-x) + sinT * std::exp(-x * x) / kSqrtPiD; };  // 2 * CDF
+    auto dC = [&](double x) { return 2.0 * std::exp(-x * x) * (cosT - x * sinT) / kSqrtPiD; };
+    const double total = C(cotT);
+    const double target = u * total;
+    double lo = std::min(cotT, 0.0) - 1.0, hi = cotT;
+    while (C(lo) > target && lo > -40.0) lo -= 2.0;
+    if (C(lo) >= target) return lo;
+    double x = 0.5 * (lo + hi);
+    for (int it = 0; it < 100; ++it) {
+        double v = C(x) - target;
+        if (std::abs(v) <= 1e-15 * total) break;
+        if (v > 0) hi = x; else lo = x;
+        double d = dC(x);
+        double xn = d > 0 ? x - v / d : 0.5 * (lo + hi);
+        if (!(xn > lo && xn < hi)) xn = 0.5 * (lo + hi);
+        if (hi - lo < 1e-14 * std::max(1.0, std::abs(x))) { x = xn; break; }
+        x = xn;
+    }
+    return x;
+}
+
+}  // namespace
+
+Microfacet::Microfacet(MicrofacetType type, float alphaU, float alphaV, MaskingModel masking)
+    : type_(type), masking_(masking), au_(std::max(alphaU, kMinAlpha)), av_(std::max(alphaV, kMinAlpha)) {}
+
+float Microfacet::D(const Vec3& m) const {
+    if (!(m.z > 0.f)) return 0.f;
+    const double x = double(m.x) / au_, y = double(m.y) / av_, z = m.z;
+    if (type_ == MicrofacetType::GGX) {
+        const double t = x * x + y * y + z * z;
+        return float(1.0 / (kPiD * double(au_) * av_ * t * t));
+    }
+    const double z2 = z * z;
+    const double e = (x * x + y * y) / z2;
+    if (e > 700.0) return 0.f;
+    return float(std::exp(-e) / (kPiD * double(au_) * av_ * z2 * z2));
+}
+
+float Microfacet::lambda(const Vec3& w) const {
+    const double ax = double(au_) * w.x, ay = double(av_) * w.y;
+    const double r2 = ax * ax + ay * ay;  // alpha^2 sin^2(theta) (azimuth-dependent alpha)
+    const double z = std::abs(double(w.z));
+    if (r2 == 0.0) return 0.f;
+    if (z == 0.0) return kInf;
+    if (type_ == MicrofacetType::GGX) {
+        const double a2t2 = r2 / (z * z);
+        if (!(a2t2 < 1e300)) return kInf;
+        return float(a2t2 / (2.0 * (1.0 + std::sqrt(1.0 + a2t2))));  // (sqrt(1 + a2t2) - 1) / 2
+    }
+    const double a = z / std::sqrt(r2);  // 1 / (alpha tan(theta))
+    const double l = 0.5 * (std::exp(-a * a) / (a * kSqrtPiD) - std::erfc(a));
+    return float(std::max(0.0, l));
+}
+
+float Microfacet::G1Smith(const Vec3& w, const Vec3& m) const {
+    if (!(glm::dot(w, m) * w.z > 0.f)) return 0.f;
+    return 1.f / (1.f + lambda(w));
+}
+
+float Microfacet::G1VCavity(const Vec3& w, const Vec3& m) const {
+    const float wm = glm::dot(w, m);
+    if (!(wm * w.z > 0.f)) return 0.f;
+    return std::min(1.f, 2.f * std::abs(m.z) * std::abs(w.z) / std::abs(wm));
+}
+
+float Microfacet::G1(const Vec3& w, const Vec3& m) const {
+    return masking_ == MaskingModel::Smith ? G1Smith(w, m) : G1VCavity(w, m);
+}
+
+float Microfacet::G2(const Vec3& wo, const Vec3& wi, const Vec3& m) const {
+    const float go = G1(wo, m), gi = G1(wi, m);
+    if (masking_ == MaskingModel::Smith) return go * gi;
+    if (wo.z * wi.z > 0.f) return std::min(go, gi);
+    return std::max(0.f, go + gi - 1.f);
+}
+
+float Microfacet::pdfVisible(const Vec3& w, const Vec3& m) const {
+    if (!(w.z > 0.f) || !(m.z > 0.f)) return 0.f;
+    const float wm = glm::dot(w, m);
+    if (!(wm > 0.f)) return 0.f;
+    return G1(w, m) * wm * D(m) / w.z;
+}
+
+Vec3 Microfacet::sampleD(const Vec2& u) const {
+    const float ux = std::min(u.x, kOneMinusEps);
+    const float r2 = type_ == MicrofacetType::GGX ? ux / (1.f - ux) : -std::log1p(-ux);
+    const float r = std::sqrt(r2);
+    const float phi = 2.f * kPi * u.y;
+    const float sx = au_ * r * std::cos(phi), sy = av_ * r * std::sin(phi);
+    return glm::normalize(Vec3(-sx, -sy, 1.f));
+}
+
+Vec3 Microfacet::sampleVisibleSmith(const Vec3& w, const Vec2& u) const {
+    if (type_ == MicrofacetType::GGX) {
+        // Heitz 2018, "Sampling the GGX distribution of visible normals".
+        const Vec3 vh = glm::normalize(Vec3(au_ * w.x, av_ * w.y, w.z));
+        const float lensq = vh.x * vh.x + vh.y * vh.y;
+        const Vec3 t1v = lensq > 0.f ? Vec3(-vh.y, vh.x, 0.f) / std::sqrt(lensq) : Vec3(1.f, 0.f, 0.f);
+        const Vec3 t2v = glm::cross(vh, t1v);
+        const float r = std::sqrt(u.x), phi = 2.f * kPi * u.y;
+        const float t1 = r * std::cos(phi);
+        float t2 = r * std::sin(phi);
+        const float s = 0.5f * (1.f + vh.z);
+        t2 = (1.f - s) * safeSqrt(1.f - t1 * t1) + s * t2;
+        const Vec3 nh = t1 * t1v + t2 * t2v + safeSqrt(1.f - t1 * t1 - t2 * t2) * vh;
+        return glm::normalize(Vec3(au_ * nh.x, av_ * nh.y, std::max(0.f, nh.z)));
+    }
+    // Beckmann: stretch to alpha = 1, sample the visible slope, rotate, unstretch.
+    const double wx = double(au_) * w.x, wy = double(av_) * w.y, wz = w.z;
+    const double len = std::sqrt(wx * wx + wy * wy + wz * wz);
+    const double sinT = std::sqrt(wx * wx + wy * wy) / len, cosT = wz / len;
+    double sx, sy;
+    if (sinT < 1e-9) {
+        const double r = std::sqrt(-std::log1p(-std::min(double(u.x), 1.0 - 1e-16)));
+        const double phi = 2.0 * kPiD * u.y;
+        sx = r * std::cos(phi);
+        sy = r * std::sin(phi);
+    } else {
+        const double x = sampleBeckmannVisibleSlopeX(cosT, sinT, u.x);
+        const double y = erfInv(2.0 * u.y - 1.0);
+        const double rl = std::sqrt(wx * wx + wy * wy);
+        const double cp = wx / rl, sp = wy / rl;
+        sx = x * cp - y * sp;
+        sy = x * sp + y * cp;
+    }
+    sx *= au_;
+    sy *= av_;
+    const double n = std::sqrt(sx * sx + sy * sy + 1.0);
+    return Vec3(float(-sx / n), float(-sy / n), float(1.0 / n));
+}
+
+Vec3 Microfacet::sampleVisible(const Vec3& w, const Vec2& u, float& uExtra) const {
+    if (masking_ == MaskingModel::Smith) return sampleVisibleSmith(w, u);
+    // V-cavity (Heitz & d'Eon 2014): choose between m and its groove partner by visible area.
+    Vec3 m = sampleD(u);
+    const Vec3 mp(-m.x, -m.y, m.z);
+    const float a = std::max(0.f, glm::dot(w, m)), b = std::max(0.f, glm::dot(w, mp));
+    const float q = a + b > 0.f ? b / (a + b) : 0.f;
+    if (uExtra < q) {
+        m = mp;
+        uExtra = std::min(uExtra / q, kOneMinusEps);
+    } else {
+        uExtra = q < 1.f ? std::min((uExtra - q) / (1.f - q), kOneMinusEps) : 0.f;
+    }
+    return m;
+}
+
+float microfacetReflection(const Microfacet& mf, const Vec3& wo, const Vec3& wi) {
+    if (!(wo.z * wi.z > 0.f)) return 0.f;
+    Vec3 h = wo + wi;
+    const float l2 = glm::dot(h, h);
+    if (!(l2 > 0.f)) return 0.f;
+    h /= std::sqrt(l2);
+    if (h.z < 0.f) h = -h;
+    const float d = mf.D(h);
+    if (d == 0.f) return 0.f;
+    return d * mf.G2(wo, wi, h) / (4.f * std::abs(wo.z) * std::abs(wi.z));
+}
+
+float microfacetTransmission(const Microfacet& mf, const Vec3& wo, const Vec3& wi, float eta, TransportMode mode) {
+    if (!(wo.z * wi.z < 0.f) || eta == 1.f) return 0.f;
+    // Written symmetrically in (wo, wi) so that swapping them changes only the mode factor:
+    // with n_upper = 1, n_lower = eta, h = normalize(w_up + eta w_down) and
+    //   base = D G2 |wi.h| |wo.h| / (|wi.z| |wo.z| (w_up.h + eta w_down.h)^2),
+    // Walter's f(wi -> wo) = base n_wo^2 (Radiance) and f(wo -> wi) = base n_wi^2 (Importance).
+    const Vec3& up = wo.z > 0.f ? wo : wi;
+    const Vec3& dn = wo.z > 0.f ? wi : wo;
+    Vec3 h = up + dn * eta;
+    const float l2 = glm::dot(h, h);
+    if (!(l2 > 0.f)) return 0.f;
+    h /= std::sqrt(l2);
+    if (h.z < 0.f) h = -h;
+    const float dUp = glm::dot(up, h), dDn = glm::dot(dn, h);
+    const float denom = dUp + eta * dDn;
+    if (denom == 0.f) return 0.f;
+    const float d = mf.D(h);
+    if (d == 0.f) return 0.f;
+    const float g = mf.G2(wo, wi, h);
+    if (g == 0.f) return 0.f;
+    const float base = d * g * std::abs(dUp * dDn) / (std::abs(wi.z) * std::abs(wo.z) * denom * denom);
+    const bool woUp = wo.z > 0.f;
+    const float nOut = (mode == TransportMode::Radiance) == woUp ? 1.f : eta;  // n_wo (Radiance) or n_wi
+    return base * nOut * nOut;
+}
+
+}  // namespace lt

@@ -1,0 +1,106 @@
+// Microfacet distributions (GGX / Trowbridge-Reitz and Beckmann, anisotropic) with two
+// masking-shadowing models, in the local shading frame (macro normal = +z).
+//
+// Conventions
+// * alphaU scales the x (tangent) axis, alphaV the y (bitangent) axis. Alphas are clamped to at
+//   least kMinAlpha here; deciding that an alpha below kMinAlpha means a delta lobe is up to the
+//   material (see bsdf.h).
+// * Microfacet normals m always lie in the upper hemisphere (m.z > 0). D(m) is normalised as
+//   integral D(m) m.z dm = 1 (projected-area normalisation).
+// * Smith model: G1(w, m) = chi+((w.m)/(w.z)) / (1 + Lambda(w)), and the masking-shadowing term is
+//   the SEPARABLE form G2 = G1(wo, m) G1(wi, m) (as in Mitsuba 3), not the height-correlated one.
+//   Reason: with the separable form the BSDF f itself is bounded (sup G1(w)/|w.z| = 2/alpha for
+//   GGX, 2 sqrt(pi)/alpha for Beckmann), which is what the JG19 bound rho_bar (roughness_bound.h)
+//   assumes; the height-correlated form makes f unbounded when both directions are grazing.
+// * V-cavity model (Heitz 2014, "Understanding the masking-shadowing function", Sec. 5):
+//   G1(w, m) = chi+((w.m)/(w.z)) min(1, 2 |m.z| |w.z| / |w.m|),
+//   G2 = min(G1(wo), G1(wi)) when wo, wi are on the same side (reflection) and
+//   G2 = max(0, G1(wo) + G1(wi) - 1) when they are on opposite sides (transmission).
+// * Visible normals: D_w(m) = G1(w, m) max(0, w.m) D(m) / w.z, for w.z > 0 (callers flip w
+//   below the surface). Smith: sampled exactly (GGX: Heitz 2018; Beckmann: Heitz & d'Eon 2014
+//   visible-slope inversion, solved to double precision). V-cavity: sampled exactly by the
+//   Heitz & d'Eon 2014 V-cavity procedure: m ~ D(m) m.z, then m is swapped with its V-groove
+//   partner m' = (-m.x, -m.y, m.z) with probability <w,m'>+ / (<w,m>+ + <w,m'>+). The resulting
+//   density is exactly D_w(m) with the V-cavity G1 (pdfVisible).
+#pragma once
+#include "bsdf/bsdf.h"
+#include "core/math.h"
+
+namespace lt {
+
+class Microfacet {
+public:
+    Microfacet(MicrofacetType type, float alphaU, float alphaV, MaskingModel masking = MaskingModel::Smith);
+
+    MicrofacetType type() const { return type_; }
+    MaskingModel masking() const { return masking_; }
+    float alphaU() const { return au_; }
+    float alphaV() const { return av_; }
+
+    // Distribution of normals; 0 for m.z <= 0. m must be normalised.
+    float D(const Vec3& m) const;
+    // Smith Lambda(w) (uses |w.z|; independent of the side of w).
+    float lambda(const Vec3& w) const;
+    // Masking of w for microfacet m (model dependent, see above). 0 if w sees the back of m.
+    float G1(const Vec3& w, const Vec3& m) const;
+    // Masking-shadowing of the pair (model dependent, see above).
+    float G2(const Vec3& wo, const Vec3& wi, const Vec3& m) const;
+
+    // Density of visible normals D_w(m) (per unit solid angle of m). Requires w.z > 0.
+    float pdfVisible(const Vec3& w, const Vec3& m) const;
+    // Samples m ~ D_w(m). Requires w.z > 0. The V-cavity model consumes uExtra (its uniform in
+    // [0,1) is replaced by a fresh, independent uniform so that the caller can reuse it); the
+    // Smith model leaves uExtra untouched.
+    Vec3 sampleVisible(const Vec3& w, const Vec2& u, float& uExtra) const;
+
+    // m ~ D(m) m.z (all normals, not only visible ones) and its density.
+    Vec3 sampleD(const Vec2& u) const;
+    float pdfD(const Vec3& m) const { return D(m) * std::max(0.f, m.z); }
+
+private:
+    Vec3 sampleVisibleSmith(const Vec3& w, const Vec2& u) const;
+    float G1Smith(const Vec3& w, const Vec3& m) const;
+    float G1VCavity(const Vec3& w, const Vec3& m) const;
+
+    MicrofacetType type_;
+    MaskingModel masking_;
+    float au_, av_;
+};
+
+// The alphas a microfacet material uses for one evaluation: the override's if one is given
+// (Roughness, bsdf.h), else the material's own. delta is true when both are below kMinAlpha
+// (the material then behaves as its smooth, delta variant); otherwise Microfacet clamps each
+// alpha to at least kMinAlpha.
+struct EffectiveAlpha {
+    float u = 0.f, v = 0.f;
+    bool delta = true;
+};
+inline EffectiveAlpha effectiveAlpha(float alphaU, float alphaV, const Roughness* override) {
+    if (override) {
+        alphaU = override->alphaU;
+        alphaV = override->alphaV;
+    }
+    return {alphaU, alphaV, !(std::max(alphaU, alphaV) >= kMinAlpha)};
+}
+// Scalar roughness for OPSR: sqrt(alphaU alphaV) clamped to [0, 1].
+inline float scalarRoughness(float alphaU, float alphaV) {
+    return std::clamp(std::sqrt(std::max(0.f, alphaU * alphaV)), 0.f, 1.f);
+}
+
+// ---- Fresnel-free microfacet BSDFs (F = 1 for reflection, 1 - F = 1 for refraction) -------
+// These are the quantities bounded by maxValueBound() in roughness_bound.h; the materials
+// multiply them by the Fresnel factor and their colour.
+//
+// Torrance-Sparrow reflection D(h) G2 / (4 |wo.z| |wi.z|), h = normalize(wo + wi), for wo, wi on
+// the same side (any side); 0 otherwise.
+float microfacetReflection(const Microfacet& mf, const Vec3& wo, const Vec3& wi);
+// Walter et al. 2007 refraction through an interface with relative IOR eta = n_lower / n_upper
+// (lower = z < 0 side): wo and wi on opposite sides, generalised half vector
+// h = normalize(n_wo wo + n_wi wi) facing +z, value
+//   |wi.h| |wo.h| D(h) G2 / (|wi.z| |wo.z| (wi.h + wo.h / etap)^2)  [* 1/etap^2 in Radiance mode]
+// with etap = n_wi / n_wo (the header's convention: Radiance = f(wi -> wo)). 0 for eta == 1.
+// Computed symmetrically in (wo, wi), so f_rad(wo, wi) etap^2 == f_rad(wi, wo) up to rounding
+// of one multiplication.
+float microfacetTransmission(const Microfacet& mf, const Vec3& wo, const Vec3& wi, float eta, TransportMode mode);
+
+}  // namespace lt

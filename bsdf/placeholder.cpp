@@ -1,1 +1,0 @@
-namespace lt { int bsdfPlaceholder() { return 0; } }

@@ -1,0 +1,74 @@
+#include "bsdf/roughness_bound.h"
+
+#include <cmath>
+
+namespace lt {
+
+namespace {
+
+constexpr double kPiD = 3.14159265358979323846;
+constexpr double kSqrtPiD = 1.77245385090551602730;
+
+// sup over m of D(m) for an isotropic alpha.
+double dMax(MicrofacetType type, double a) {
+    const double a2 = a * a;
+    if (type == MicrofacetType::GGX) return a <= 1.0 ? 1.0 / (kPiD * a2) : a2 / kPiD;
+    if (a2 <= 0.5) return 1.0 / (kPiD * a2);
+    return 4.0 * a2 * std::exp(1.0 / a2 - 2.0) / kPiD;  // at tan^2 = 2 alpha^2 - 1
+}
+
+// G_bar: sup of G2 / (|cos_o| |cos_i|) (Smith, separable) or 1 (V-cavity, see header).
+double gBar(MicrofacetType type, MaskingModel masking, double a) {
+    if (masking == MaskingModel::VCavity) return 1.0;
+    double g1;  // sup_w G1(w) / |cos w|
+    if (type == MicrofacetType::GGX) g1 = 2.0 / std::min(a, 2.0);
+    else g1 = a <= 3.0 ? 2.0 * kSqrtPiD / a : std::max(2.0 * kSqrtPiD / a, 1.02);
+    return g1 * g1;
+}
+
+// The alpha-independent factor: 1/4 for reflection, max(1,eta)^2/(1-eta)^2 for refraction.
+double lobeFactor(bool transmission, double eta) {
+    if (!transmission) return 0.25;
+    const double d = 1.0 - eta;
+    return std::max(1.0, eta * eta) / (d * d);
+}
+
+double bound(MicrofacetType type, MaskingModel masking, double a, bool transmission, double eta) {
+    return lobeFactor(transmission, eta) * dMax(type, a) * gBar(type, masking, a);
+}
+
+}  // namespace
+
+float maxValueBound(MicrofacetType type, MaskingModel masking, float alpha, bool transmission, float eta) {
+    if (!(alpha > 0.f) || (transmission && eta == 1.f)) return kInf;
+    return float(bound(type, masking, alpha, transmission, eta));
+}
+
+float alphaForBound(MicrofacetType type, MaskingModel masking, float tau, bool transmission, float eta) {
+    if (transmission && eta == 1.f) return 1.f;
+    if (!(tau > 0.f)) return 1.f;
+    if (std::isinf(tau)) return 0.f;
+    const double c = lobeFactor(transmission, eta);
+    const double t = tau;
+    // Closed form of the paper's branch, D_max = 1/(pi alpha^2):
+    //   Smith: rho = c K / (pi alpha^4), K = 4 (GGX), 4 pi (Beckmann); V-cavity: c / (pi alpha^2).
+    double a;
+    if (masking == MaskingModel::VCavity) {
+        a = std::sqrt(c / (kPiD * t));
+    } else {
+        const double k = type == MicrofacetType::GGX ? 4.0 : 4.0 * kPiD;
+        a = std::sqrt(std::sqrt(c * k / (kPiD * t)));
+    }
+    const double aBranch = type == MicrofacetType::GGX ? 1.0 : std::sqrt(0.5);
+    if (a <= aBranch) return float(a);
+    // Beyond the branch (Beckmann alpha in (1/sqrt 2, 1]): rho_bar strictly decreasing, bisect.
+    if (t <= bound(type, masking, 1.0, transmission, eta)) return 1.f;
+    double lo = std::log(aBranch), hi = 0.0;  // log alpha
+    for (int i = 0; i < 100 && hi - lo > 1e-12; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        if (bound(type, masking, std::exp(mid), transmission, eta) > t) lo = mid; else hi = mid;
+    }
+    return float(std::exp(0.5 * (lo + hi)));
+}
+
+}  // namespace lt
