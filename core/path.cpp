@@ -93,26 +93,90 @@ int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices
                       rrDepth, path, stats);
 }
 
-float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) {
+int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats) {
+    if (scene.lights().empty() || maxVertices < 1) return 0;
+    float uSel = rng.uniform();
+    Vec2 uPos = rng.uniform2(), uDir = rng.uniform2();
+    size_t li = scene.lightDistribution().sample(uSel);
+    const Light& l = scene.lights()[li];
+    float sel = scene.lightDistribution().probability(li);
+    LightSampleLe le = l.sampleLe(scene, uPos, uDir);
+    if (!(sel > 0.f) || !(le.pdfPos.value > 0.f) || !(le.pdfDir.value > 0.f) || isBlack(le.value)) return 0;
+    PathVertex& y0 = path[0];
+    y0 = PathVertex{};
+    y0.kind = VertexKind::Light;
+    y0.light = &l;
+    y0.infinite = l.isInfinite();
+    y0.p = le.p;
+    y0.ng = l.type == LightType::Area ? le.n : Vec3(0.f);
+    y0.shading = Frame(l.type == LightType::Area ? le.n : le.dir);
+    y0.roughness = 1.f;
+    // Density of the endpoint in the measure NEE uses: area for finite lights, the emission
+    // direction's solid angle for lights at infinity (their position lives on the scene's disk).
+    y0.pdfFwd = AreaPdf(sel * (y0.infinite ? le.pdfDir.value : le.pdfPos.value));
+    y0.beta = Color(1.f / (sel * le.pdfPos.value));  // the light's value is applied at connections
+    if (maxVertices == 1) return 1;
+    float cosL = l.type == LightType::Area ? std::abs(glm::dot(le.n, le.dir)) : 1.f;
+    Color beta = le.value * cosL / (sel * le.pdfPos.value * le.pdfDir.value);
+    Ray ray = l.type == LightType::Area ? scene.spawnRay(le.p, le.n, le.dir) : Ray{le.p, le.dir};
+    int n = randomWalk(scene, ray, beta, le.pdfDir, rng, TransportMode::Importance, maxVertices, rrDepth, path, stats);
+    if (y0.infinite && n > 1) {
+        // A ray from the scene's disk: the first hit's density is the disk's, projected.
+        path[1].pdfFwd = AreaPdf(le.pdfPos.value * std::abs(glm::dot(path[1].ng, le.dir)));
+        path[1].segmentLength = 0.f;
+        path[1].pathLength = 0.f;
+    }
+    return n;
+}
+
+namespace {
+
+// sum over all techniques k able to sample the path of (n_k p_k / p_VC(base))^2.
+double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     const int n = pdfs.n;
     auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
-    auto valid = [&](int k) {
-        if (!allowsTechnique(set, k, n - k)) return false;
+    auto validVC = [&](int k) {
+        if (!allowsTechnique(cfg.set, k, n - k)) return false;
         if (k == 0) return pdfs.lightHittable;
         if (k == n) return false;  // pinhole camera
         return !pdfs.delta[k - 1] && !pdfs.delta[k];
     };
-    double sum = 1.0, r = 1.0;
-    for (int k = s + 1; k <= n; ++k) {  // p_k / p_{k-1} = pL[k-1] / pC[k-1]
-        r *= remap(pdfs.fromLight[k - 1]) / remap(pdfs.fromCamera[k - 1]);
-        if (valid(k)) sum += r * r;
+    auto validVM = [&](int i) { return cfg.merging && i >= 1 && i <= n - 2 && !pdfs.delta[i]; };
+    const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
+    double sum = 0.0;
+    // ratio = p_VC(k) / p_VC(base); p_VC(k) / p_VC(k-1) = pL[k-1] / pC[k-1].
+    double r = 1.0;
+    for (int k = base; k <= n; ++k) {
+        if (k > base) r *= remap(pdfs.fromLight[k - 1]) / remap(pdfs.fromCamera[k - 1]);
+        if (validVC(k)) sum += r * r;
+        if (k < n && validVM(k)) {
+            double q = r * vm * double(pdfs.fromLight[k]);
+            sum += q * q;
+        }
     }
     r = 1.0;
-    for (int k = s - 1; k >= 0; --k) {  // p_k / p_{k+1} = pC[k] / pL[k]
+    for (int k = base - 1; k >= 0; --k) {
         r *= remap(pdfs.fromCamera[k]) / remap(pdfs.fromLight[k]);
-        if (valid(k)) sum += r * r;
+        if (validVC(k)) sum += r * r;
+        if (validVM(k)) {
+            double q = r * vm * double(pdfs.fromLight[k]);
+            sum += q * q;
+        }
     }
-    return float(1.0 / sum);
+    return sum;
+}
+
+}  // namespace
+
+float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
+    double sum = misSum(pdfs, s, cfg);
+    return sum > 0.0 ? float(1.0 / sum) : 0.f;
+}
+
+float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
+    double own = double(cfg.mergeArea) * double(cfg.lightPaths) * double(pdfs.fromLight[i]);
+    double sum = misSum(pdfs, i, cfg);
+    return sum > 0.0 ? float(own * own / sum) : 0.f;
 }
 
 void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs) {
@@ -192,15 +256,31 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
              WalkStats& stats) {
     const PathVertex& a = y[s - 1];  // light side
     const PathVertex& b = z[t - 1];  // camera side
-    if (b.kind != VertexKind::Surface || b.infinite || !b.connectible()) return false;
+    const bool toCamera = b.kind == VertexKind::Camera;
+    if (!toCamera && (b.kind != VertexKind::Surface || b.infinite || !b.connectible())) return false;
     if (a.kind == VertexKind::Surface && !a.connectible()) return false;
+    if (toCamera && a.infinite) return false;
     Vec3 d = a.p - b.p;
     float dist2 = glm::dot(d, d);
     if (!(dist2 > 0.f)) return false;
     Vec3 wBA = d / std::sqrt(dist2);
     if (a.infinite) dist2 = 1.f;
 
-    BsdfEval eb = b.bsdf().eval(b.wo, wBA, TransportMode::Radiance);
+    BsdfEval eb;
+    float cosB;
+    if (toCamera) {
+        // Light tracing: the camera's importance and the raster position of a.
+        const Camera& cam = scene.camera();
+        auto raster = cam.rasterPosition(a.p);
+        if (!raster) return false;
+        c.raster = *raster;
+        eb.f = Color(cam.importance(wBA));
+        eb.pdfFwd = cam.directionPdf(wBA);
+        cosB = glm::dot(cam.forward(), wBA);
+    } else {
+        eb = b.bsdf().eval(b.wo, wBA, TransportMode::Radiance);
+        cosB = std::abs(glm::dot(b.shading.n, wBA));
+    }
     if (isBlack(eb.f)) return false;
     Color fa;
     BsdfEval ea;
@@ -214,11 +294,11 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
     float cosA = (a.kind == VertexKind::Surface) ? std::abs(glm::dot(a.shading.n, wBA))
                  : a.onSurface()                 ? std::abs(glm::dot(a.ng, wBA))
                                                  : 1.f;
-    float cosB = std::abs(glm::dot(b.shading.n, wBA));
     Color contrib = a.beta * fa * (cosA * cosB / dist2) * eb.f * b.beta;
     if (isBlack(contrib)) return false;
     ++stats.rays;
     bool blocked = a.infinite ? scene.occludedInfinite(b.p, b.ng, wBA) : scene.occluded(b.p, b.ng, a.p, a.ng);
+    // (for the camera b.ng is zero: the shadow ray starts exactly at the pinhole)
     if (blocked) return false;
 
     // MIS pdfs: the path's own, with the four values at the connection recomputed.
@@ -235,6 +315,25 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
     }
     if (t >= 2) P.fromLight[s + 1] = convertDensity(eb.pdfRev, b, z[t - 2]).value;
     c.contribution = contrib;
+    return true;
+}
+
+bool merge(const PathVertex* y, int i, const PathVertex* z, int t, Connection& c) {
+    const PathVertex& yv = y[i];
+    const PathVertex& zv = z[t - 1];
+    if (i < 1 || t < 2 || !zv.connectible() || !yv.connectible() || zv.infinite) return false;
+    if (glm::dot(yv.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
+    BsdfEval ez = zv.bsdf().eval(zv.wo, yv.wo, TransportMode::Radiance);
+    if (isBlack(ez.f)) return false;
+    c.contribution = zv.beta * ez.f * yv.beta;
+    // Full path: x_0..x_i from the light subpath (x_i at the camera vertex), then z[t-2]..z[0].
+    PathPdfs& P = c.pdfs;
+    gatherLightPdfs(y, i + 1, P);
+    gatherCameraPdfs(z, t, i, P);
+    P.fromLight[i] = yv.pdfFwd.value;
+    P.delta[i] = false;
+    P.fromCamera[i - 1] = convertDensity(ez.pdfFwd, zv, y[i - 1]).value;
+    P.fromLight[i + 1] = convertDensity(ez.pdfRev, zv, z[t - 2]).value;
     return true;
 }
 

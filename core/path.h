@@ -60,20 +60,36 @@ struct WalkStats {
 int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng, TransportMode mode,
                int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats);
 
+// Starts a light subpath: picks a light by power, samples an emitted ray. Returns the number of
+// vertices (0 when no light can emit). path[0] is the light endpoint.
+int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats);
+
 // Starts a camera subpath through raster position `raster`.
 int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
                PathVertex* path, WalkStats& stats);
 
 // ---- MIS ----------------------------------------------------------------------------------
-// Which techniques an integrator uses; a technique is (s, t).
-enum class TechniqueSet { PathTracer, Bidirectional };
+// Which connection techniques (s, t) an integrator uses.
+enum class TechniqueSet { PathTracer, Bidirectional, LightTracer, None };
 inline bool allowsTechnique(TechniqueSet set, int s, int t) {
     switch (set) {
         case TechniqueSet::PathTracer: return t >= 2 && (s == 0 || s == 1);
         case TechniqueSet::Bidirectional: return t >= 1;  // the pinhole cannot be hit (t = 0)
+        case TechniqueSet::LightTracer: return t == 1;
+        case TechniqueSet::None: return false;
     }
     return false;
 }
+
+// The techniques competing in the MIS sum: connections from `set`, and (VCM) merges at every
+// interior non-delta vertex x_i (1 <= i <= n-2) with n_VM = lightPaths samples each, compared
+// with the n_VC = 1 sample of each connection technique (Georgiev et al. 2012, Eq. 10-11).
+struct MisConfig {
+    TechniqueSet set = TechniqueSet::PathTracer;
+    bool merging = false;
+    float mergeArea = 0.f;   // pi r^2 of the current iteration
+    float lightPaths = 0.f;  // N, light subpaths per iteration
+};
 
 // The pdfs of one full path, gathered from both subpaths (with the values at the technique's own
 // connection vertices recomputed). Regularisation replaces entries here, per technique.
@@ -84,10 +100,14 @@ struct PathPdfs {
     bool lightHittable = false;  // can a camera walk reach x_0 (technique s = 0)?
 };
 
-// Power-heuristic weight of technique s: p_s^2 / sum_k p_k^2 over the techniques k of `set` that
-// can sample this path, p_k = prod_{i<k} pL[i] * prod_{i>=k} pC[i]. Computed by the plain sum
-// over techniques with ratios p_k / p_s (no recursion).
-float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set);
+// Power-heuristic weight of connection technique s: p_s^2 / sum_k (n_k p_k)^2 over the techniques
+// k that can sample this path, p_k = prod_{i<k} pL[i] * prod_{i>=k} pC[i] (a merge at x_i has
+// p_VC(i) * pL[i] * pi r^2). Computed as the plain sum over techniques of the ratios p_k / p_s
+// (no recursion), so changing one technique's pdfs changes only its own array entries.
+float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg);
+// Weight of the merge technique at x_i.
+float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg);
+inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) { return misWeight(pdfs, s, MisConfig{set}); }
 
 // ---- Connection ----------------------------------------------------------------------------
 // A light endpoint for next-event estimation (technique s = 1), sampled from the scene's lights.
@@ -95,17 +115,24 @@ bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVerte
 
 struct Connection {
     Color contribution{0.f};  // unweighted: beta_y * f_y * G * f_z * beta_z, visibility included
+    Vec2 raster{0.f};         // t = 1 (light tracing): where to splat
     PathPdfs pdfs;
 };
 
-// Connects the light subpath y[0..s-1] with the camera subpath z[0..t-1] (s >= 1, t >= 2 here;
-// light tracing (t = 1) comes with BPT). Returns false when the connection carries nothing.
+// Connects the light subpath y[0..s-1] with the camera subpath z[0..t-1] (s >= 1, t >= 1; t = 1 is
+// light tracing: z[0] is the camera and the result carries the raster position).
+// Returns false when the connection carries nothing.
 bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
              WalkStats& stats);
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
 // fills the pdfs.
 Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs);
+
+// Merge (vertex merging) of light vertex y[i] (i >= 1) with camera vertex z[t-1] (t >= 2):
+// the unweighted contribution f_z(z.wo, y.wo) * beta_y * beta_z (the caller divides by
+// N pi r^2) and the pdfs of the merged path for misWeightMerge(pdfs, i).
+bool merge(const PathVertex* y, int i, const PathVertex* z, int t, Connection& c);
 
 // Gathers the pdfs of the camera subpath z[0..t-1] into pdfs (x indices s..s+t-1), n = s + t.
 void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs);

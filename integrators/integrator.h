@@ -22,6 +22,11 @@ struct RenderSettings {
     // PT only: "mis" (NEE and emitter hits, power heuristic), "nee" (emitter hits only where NEE
     // cannot connect: seen from the camera or after a delta lobe), "bsdf" (emitter hits only).
     std::string ptStrategy = "mis";
+    // VCM / PPM: initial merge radius (<= 0: 0.003 x the scene's bounding radius, as SmallVCM)
+    // and the radius reduction exponent: r_i = r_0 i^((alpha - 1) / 2).
+    float radius = -1.f;
+    float radiusAlpha = 0.75f;
+    std::string strategyImages;  // BPT/VCM: directory for per-technique images ("" = none)
 };
 
 struct RenderStats {
@@ -38,6 +43,10 @@ class Integrator {
 public:
     virtual ~Integrator() = default;
     virtual std::string name() const = 0;
+    // Called once per pass before the tiles (light subpaths, light tracing, photon grid).
+    virtual void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) {}
+    // Called once after the last pass (e.g. to write per-strategy images).
+    virtual void finish(const Scene& scene, uint64_t passes) {}
     // Renders sample index `pass` of every pixel in rows [y0, y1) x cols [x0, x1).
     virtual void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
                             WalkStats& stats) const = 0;

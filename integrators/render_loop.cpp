@@ -9,11 +9,14 @@
 namespace lt {
 
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s);
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s);
 
-std::string supportedIntegrators() { return "pt"; }
+std::string supportedIntegrators() { return "pt, bpt, vcm, lt, ppm"; }
 
 std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
     if (s.integrator == "pt") return makePathTracer(s);
+    if (s.integrator == "bpt" || s.integrator == "vcm" || s.integrator == "lt" || s.integrator == "ppm")
+        return makeBidirectional(s);
     throw std::invalid_argument("unknown integrator '" + s.integrator + "' (supported: " + supportedIntegrators() + ")");
 }
 
@@ -38,6 +41,11 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
         if (totalPasses > 0 && passes >= totalPasses) break;
         if (totalPasses == 0 && (settings.timeLimit <= 0.0 || elapsed() >= settings.timeLimit)) break;
         uint32_t pass = uint32_t(passes);
+        {
+            WalkStats ws;
+            integrator->beginPass(scene, film, pass, ws);
+            rays += ws.rays;
+        }
         tbb::parallel_for(tbb::blocked_range2d<int>(0, cam.height(), kTile, 0, cam.width(), kTile),
                           [&](const tbb::blocked_range2d<int>& r) {
                               WalkStats ws;
@@ -54,6 +62,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
         }
         if (totalPasses > 0 && settings.timeLimit > 0.0 && elapsed() >= settings.timeLimit) break;
     }
+    integrator->finish(scene, passes);
     stats.seconds = elapsed();
     stats.spp = passes;
     stats.samples = passes * uint64_t(cam.width()) * cam.height();

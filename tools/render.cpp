@@ -44,7 +44,14 @@ int main(int argc, char** argv) {
     app.add_option("--max-depth", maxDepth, "Maximum path length in segments (-1 = unlimited)")
         ->check(CLI::Range(-1, 64));
     app.add_option("-D", defines, "Override a <default> of the scene: -D name=value")->take_all();
-    std::string ptStrategy = "mis";
+    std::string ptStrategy = "mis", strategyImages;
+    float radius = -1.f, radiusAlpha = -1.f;
+    app.add_option("--radius", radius, "VCM/PPM initial merge radius (default: the scene's, else 0.003 x scene radius)")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--radius-alpha", radiusAlpha, "VCM/PPM radius reduction: r_i = r_0 i^((alpha-1)/2), alpha in (0,1]")
+        ->check(CLI::Range(1e-6, 1.0));
+    app.add_option("--strategy-images", strategyImages,
+                   "BPT/VCM/LT/PPM: write each technique's weighted contribution (s_t.exr, merge_s.exr) to this directory");
     app.add_option("--pt-strategy", ptStrategy, "PT techniques: mis (default), nee, bsdf")
         ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
     app.add_flag("-q,--quiet", quiet, "No progress bar");
@@ -89,12 +96,11 @@ int main(int argc, char** argv) {
     RenderSettings settings;
     if (!integrator.empty()) {
         settings.integrator = integrator;
-    } else if (desc.integrator.type == "path") {
-        settings.integrator = "pt";
     } else {
-        fmt::print(stderr, "warning: integrator '{}' of the scene is not available yet; using pt\n",
-                   desc.integrator.type);
-        settings.integrator = "pt";
+        static const std::map<std::string, std::string> fromXml = {
+            {"path", "pt"}, {"bdpt", "bpt"}, {"vcm", "vcm"}, {"ptracer", "lt"}, {"ppm", "ppm"}};
+        auto it = fromXml.find(desc.integrator.type);
+        settings.integrator = it != fromXml.end() ? it->second : "pt";
     }
     settings.spp = spp > 0 ? spp : (timeLimit > 0 ? 0 : desc.sampleCount);
     settings.timeLimit = timeLimit;
@@ -105,6 +111,9 @@ int main(int argc, char** argv) {
     settings.hideEmitters = desc.integrator.hideEmitters;
     settings.quiet = quiet;
     settings.ptStrategy = ptStrategy;
+    settings.radius = radius > 0.f ? radius : desc.integrator.radius;
+    settings.radiusAlpha = radiusAlpha > 0.f ? radiusAlpha : desc.integrator.radiusAlpha;
+    settings.strategyImages = strategyImages;
 
     try {
         makeIntegrator(settings);  // validates the name before any work

@@ -1,0 +1,241 @@
+// Bidirectional integrators on the shared path-vertex store, one class selected by flags
+// (as SmallVCM): bpt = VCM without merging, vcm (Georgiev et al. 2012), lt (light tracing only),
+// ppm (merging only: progressive photon mapping). PT is integrators/pt.cpp: the same camera walk
+// with only s = 0 and s = 1.
+//
+// One iteration (pass): (1) W x H light subpaths into the flat LightPathStore, each light vertex
+// connected to the camera (t = 1) and splatted; (2) the photon hash grid over the light vertices
+// (vcm, ppm); (3) per pixel one camera subpath, evaluated with every connection (s, t) against the
+// pixel's own light subpath (n_VC = 1) and merges against all light subpaths (n_VM = W x H).
+#include <tbb/parallel_for.h>
+#include <atomic>
+#include <filesystem>
+#include <fmt/core.h>
+#include <mutex>
+#include <stdexcept>
+#include "core/light_paths.h"
+#include "integrators/integrator.h"
+
+namespace lt {
+
+namespace {
+
+// Per-technique images for debugging (--strategy-images): connections (s, t) and merges by the
+// number of light vertices s = i + 1.
+class StrategyImages {
+public:
+    StrategyImages(int w, int h, int maxLen) : w_(w), h_(h), maxLen_(maxLen) {
+        conn_.resize(size_t(maxLen + 2) * (maxLen + 2));
+        merge_.resize(size_t(maxLen + 2));
+    }
+    void add(bool isMerge, int s, int t, uint32_t pixel, const Color& c) {
+        if (s > maxLen_ + 1 || t > maxLen_ + 1) return;
+        auto& img = isMerge ? merge_[s] : conn_[size_t(s) * (maxLen_ + 2) + t];
+        std::lock_guard<std::mutex> lock(m_);  // debugging aid: simplicity over speed
+        if (img.empty()) img.assign(size_t(w_) * h_, glm::dvec3(0.0));
+        img[pixel] += glm::dvec3(c);
+    }
+    void write(const std::string& dir, uint64_t passes) const {
+        std::filesystem::create_directories(dir);
+        auto save = [&](const std::vector<glm::dvec3>& img, const std::string& name) {
+            if (img.empty()) return;
+            Image out(w_, h_);
+            for (size_t i = 0; i < img.size(); ++i) out.pixels[i] = Color(img[i] / double(std::max<uint64_t>(passes, 1)));
+            writeExr(out, dir + "/" + name);
+        };
+        for (int s = 0; s <= maxLen_ + 1; ++s) {
+            for (int t = 0; t <= maxLen_ + 1; ++t) save(conn_[size_t(s) * (maxLen_ + 2) + t], fmt::format("s{}_t{}.exr", s, t));
+            save(merge_[s], fmt::format("merge_s{}.exr", s));
+        }
+    }
+
+private:
+    int w_, h_, maxLen_;
+    std::mutex m_;
+    std::vector<std::vector<glm::dvec3>> conn_, merge_;
+};
+
+class Bidirectional final : public Integrator {
+public:
+    explicit Bidirectional(const RenderSettings& s) : settings_(s) {
+        const std::string& m = s.integrator;
+        useConnections_ = m == "bpt" || m == "vcm";
+        useLightTracing_ = m == "bpt" || m == "vcm" || m == "lt";
+        useMerging_ = m == "vcm" || m == "ppm";
+        ppm_ = m == "ppm";
+        cfg_.set = m == "lt" ? TechniqueSet::LightTracer : (ppm_ ? TechniqueSet::None : TechniqueSet::Bidirectional);
+        cfg_.merging = m == "vcm";
+        if (!(s.radiusAlpha > 0.f && s.radiusAlpha <= 1.f))
+            throw std::invalid_argument(fmt::format("radius alpha must be in (0, 1], got {}", s.radiusAlpha));
+        maxDepth_ = s.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(s.maxDepth, kMaxPathVertices - 2);
+    }
+    std::string name() const override { return settings_.integrator; }
+
+    void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) override {
+        const Camera& cam = scene.camera();
+        const size_t nPaths = size_t(cam.width()) * cam.height();
+        if (pass == 0 && !settings_.strategyImages.empty())
+            strategies_ = std::make_unique<StrategyImages>(cam.width(), cam.height(), maxDepth_);
+        float r0 = settings_.radius > 0.f ? settings_.radius : 0.003f * scene.boundsRadius();
+        radius_ = r0 * std::pow(float(pass + 1), 0.5f * (settings_.radiusAlpha - 1.f));
+        cfg_.mergeArea = kPi * radius_ * radius_;
+        cfg_.lightPaths = float(nPaths);
+
+        // (1) Light subpaths in fixed chunks; chunk order makes the store and the splats deterministic.
+        constexpr size_t kChunk = 1024;
+        const size_t nChunks = (nPaths + kChunk - 1) / kChunk;
+        chunks_.resize(nChunks);
+        splats_.resize(nChunks);
+        std::atomic<uint64_t> rays{0};
+        const int maxLight = useMerging_ || useConnections_ || useLightTracing_ ? maxDepth_ : 0;
+        tbb::parallel_for(size_t(0), nChunks, [&](size_t c) {
+            LightPathStore::Chunk& chunk = chunks_[c];
+            SplatBuffer& splat = splats_[c];
+            chunk.vertices.clear();
+            chunk.counts.clear();
+            splat.clear();
+            WalkStats ws;
+            std::array<PathVertex, kMaxPathVertices> y;
+            PathVertex camera = cameraVertex(scene);
+            for (size_t j = c * kChunk; j < std::min(nPaths, (c + 1) * kChunk); ++j) {
+                Rng rng = Rng::forSample(settings_.seed, j, pass, /*domain=*/1);
+                int ny = lightWalk(scene, rng, maxLight, settings_.rrDepth, y.data(), ws);
+                chunk.counts.push_back(uint32_t(ny));
+                chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
+                if (useLightTracing_) lightTrace(scene, film, y.data(), ny, camera, splat, ws);
+            }
+            rays += ws.rays;
+        });
+        store_.clear();
+        for (size_t c = 0; c < nChunks; ++c) {
+            store_.append(chunks_[c]);
+            film.mergeSplats(splats_[c]);
+            if (strategies_)
+                for (const auto& sp : splats_[c].splats) strategies_->add(false, sp.strategyS, 1, sp.pixel, sp.value);
+        }
+        stats.rays += rays.load();
+
+        // (2) Photon grid: light vertices after at least one segment that a merge can use.
+        if (useMerging_) {
+            items_.clear();
+            const auto& v = store_.vertices();
+            for (uint32_t k = 0; k < v.size(); ++k)
+                if (v[k].depth >= 1 && v[k].kind == VertexKind::Surface && v[k].connectible()) items_.push_back(k);
+            grid_.build(v, items_, radius_);
+        }
+    }
+
+    void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
+                    WalkStats& stats) const override {
+        std::array<PathVertex, kMaxPathVertices> z;
+        for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x) {
+                uint32_t pixel = uint32_t(y) * film.width() + x;
+                Rng rng = Rng::forSample(settings_.seed, pixel, pass, /*domain=*/0);
+                Vec2 raster = Vec2(float(x), float(y)) + film.samplePixelOffset(rng.uniform2());
+                Color L = radiance(scene, raster, pixel, rng, z.data(), stats);
+                film.addSample(x, y, L);
+                film.addSampleCount(x, y, 1);
+            }
+    }
+
+    void finish(const Scene&, uint64_t passes) override {
+        if (strategies_) strategies_->write(settings_.strategyImages, passes);
+    }
+
+private:
+    static PathVertex cameraVertex(const Scene& scene) {
+        PathVertex c;
+        c.kind = VertexKind::Camera;
+        c.p = scene.camera().position();
+        c.shading = Frame(scene.camera().forward());
+        c.beta = Color(1.f);
+        c.pdfFwd = AreaPdf(1.f);
+        c.roughness = 0.f;
+        return c;
+    }
+
+    // t = 1: every light vertex connected to the camera and splatted.
+    void lightTrace(const Scene& scene, Film& film, const PathVertex* y, int ny, const PathVertex& camera,
+                    SplatBuffer& splat, WalkStats& ws) const {
+        for (int s = 1; s <= ny && s <= maxDepth_; ++s) {
+            if (s == 1 && (y[0].light->isDeltaPosition() || settings_.hideEmitters)) continue;  // as PT: point lights are not seen
+            Connection c;
+            if (!connect(scene, y, s, &camera, 1, c, ws)) continue;
+            float w = misWeight(c.pdfs, s, cfg_);
+            film.splat(splat, c.raster, c.contribution * w, uint16_t(s));
+        }
+    }
+
+    Color radiance(const Scene& scene, const Vec2& raster, uint32_t pixel, Rng& rng, PathVertex* z,
+                   WalkStats& stats) const {
+        int nz = cameraWalk(scene, raster, rng, maxDepth_ + 1, settings_.rrDepth, z, stats);
+        const PathVertex* y = store_.path(pixel);
+        const int ny = store_.length(pixel);
+        const float mergeNorm = 1.f / (cfg_.mergeArea * cfg_.lightPaths);
+        Color L(0.f);
+        PathPdfs pdfs;
+        bool allDelta = true;  // z[1..t-2] all delta (PPM counts emitter hits only then)
+        for (int t = 2; t <= nz; ++t) {
+            const PathVertex& v = z[t - 1];
+            // s = 0: emitter hit.
+            if (v.light && !(settings_.hideEmitters && t == 2) && (useConnections_ || (ppm_ && allDelta))) {
+                Color c = emitterHit(scene, z, t, pdfs);
+                if (!isBlack(c)) record(L, c * (ppm_ ? 1.f : misWeight(pdfs, 0, cfg_)), false, 0, t, pixel);
+            }
+            if (v.infinite || !v.connectible()) {
+                allDelta = allDelta && v.delta;
+                continue;
+            }
+            if (useConnections_) {
+                // s = 1: next-event estimation with a fresh light sample.
+                PathVertex lv;
+                Connection c;
+                if (t <= maxDepth_ && sampleLightVertex(scene, v.p, rng, lv) && connect(scene, &lv, 1, z, t, c, stats))
+                    record(L, c.contribution * misWeight(c.pdfs, 1, cfg_), false, 1, t, pixel);
+                // s >= 2: the pixel's own light subpath.
+                for (int s = 2; s <= ny && s + t - 1 <= maxDepth_; ++s)
+                    if (connect(scene, y, s, z, t, c, stats))
+                        record(L, c.contribution * misWeight(c.pdfs, s, cfg_), false, s, t, pixel);
+            }
+            if (useMerging_) {
+                const auto& verts = store_.vertices();
+                Connection c;
+                grid_.query(v.p, [&](uint32_t idx, const PathVertex& pv) {
+                    int i = pv.depth;
+                    if (i + t - 1 > maxDepth_) return;
+                    const PathVertex* yp = verts.data() + (idx - uint32_t(i));
+                    if (!merge(yp, i, z, t, c)) return;
+                    float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
+                    record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel);
+                });
+                if (ppm_) break;  // PPM merges at the first non-delta camera vertex only
+            }
+            allDelta = false;
+        }
+        return L;
+    }
+
+    void record(Color& L, const Color& c, bool isMerge, int s, int t, uint32_t pixel) const {
+        L += c;
+        if (strategies_) strategies_->add(isMerge, s, t, pixel, c);
+    }
+
+    RenderSettings settings_;
+    MisConfig cfg_;
+    bool useConnections_ = false, useLightTracing_ = false, useMerging_ = false, ppm_ = false;
+    int maxDepth_ = 0;
+    float radius_ = 0.f;
+    LightPathStore store_;
+    std::vector<LightPathStore::Chunk> chunks_;
+    std::vector<SplatBuffer> splats_;
+    std::vector<uint32_t> items_;
+    HashGrid grid_;
+    std::unique_ptr<StrategyImages> strategies_;
+};
+
+}  // namespace
+
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s) { return std::make_unique<Bidirectional>(s); }
+
+}  // namespace lt
