@@ -11,6 +11,35 @@ AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& from, const PathVert
     return AreaPdf(pdf.value * c / d2);
 }
 
+// MIS densities must be functions of the path's vertices alone: the sampled ray left from an
+// offset origin, so the densities of the segment path[i-1] -> path[i] are re-evaluated with the
+// direction between the two vertex positions (pdfFwd of path[i], pdfRev of path[i-2]). Keeps the
+// sampled values where the re-evaluation gives zero (grazing directions).
+static void refreshPdfs(const Scene& scene, PathVertex* path, int i, TransportMode mode, SolidAnglePdf& pdfFwd) {
+    const PathVertex& prev = path[i - 1];
+    const Vec3 d = -path[i].wo;
+    switch (prev.kind) {
+        case VertexKind::Surface:
+            if (!prev.delta && prev.bxdf) {
+                BsdfEval e = prev.bsdf().eval(prev.wo, d, mode);
+                if (e.pdfFwd.value > 0.f) pdfFwd = e.pdfFwd;
+                if (i >= 2 && e.pdfRev.value > 0.f) path[i - 2].pdfRev = convertDensity(e.pdfRev, prev, path[i - 2]);
+            }
+            break;
+        case VertexKind::Camera: {
+            SolidAnglePdf p = scene.camera().directionPdf(d);
+            if (p.value > 0.f) pdfFwd = p;
+            break;
+        }
+        case VertexKind::Light:
+            if (!prev.infinite) {
+                SolidAnglePdf p = prev.light->pdfLeDir(prev.ng, d);
+                if (p.value > 0.f) pdfFwd = p;
+            }
+            break;
+    }
+}
+
 int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng, TransportMode mode,
                int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats) {
     int n = 1;
@@ -40,7 +69,9 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         v.p = hit.p;
         v.ng = hit.ng;
         v.shading = hit.shading;
-        v.wo = -ray.d;
+        Vec3 back = prev.p - hit.p;
+        float backLen = glm::length(back);
+        v.wo = backLen > 0.f ? back / backLen : -ray.d;  // the direction the two vertices define
         v.bxdf = hit.bxdf;
         v.light = hit.light;
         v.beta = beta;
@@ -48,6 +79,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         v.segmentLength = glm::length(hit.p - prev.p);
         v.pathLength = prev.pathLength + v.segmentLength;
         v.roughness = hit.bxdf ? hit.bxdf->roughness() : 1.f;
+        refreshPdfs(scene, path, n, mode, pdfFwd);
         v.pdfFwd = convertDensity(pdfFwd, prev, v);
         ++n;
         if (n >= maxVertices || !v.bxdf) break;

@@ -27,6 +27,10 @@ struct RenderSettings {
     float radius = -1.f;
     float radiusAlpha = 0.75f;
     std::string strategyImages;  // BPT/VCM: directory for per-technique images ("" = none)
+    // Debugging/tests: evaluate only connection technique (s, t), unweighted (-1 = all, weighted).
+    int onlyS = -1, onlyT = -1;
+    // Test hook: scales the MIS weights of connections with s >= 2 (1 = correct).
+    float testMisScale = 1.f;
 };
 
 struct RenderStats {

@@ -162,7 +162,7 @@ private:
             if (s == 1 && (y[0].light->isDeltaPosition() || settings_.hideEmitters)) continue;  // as PT: point lights are not seen
             Connection c;
             if (!connect(scene, y, s, &camera, 1, c, ws)) continue;
-            float w = misWeight(c.pdfs, s, cfg_);
+            float w = connectionWeight(c.pdfs, s, 1);
             film.splat(splat, c.raster, c.contribution * w, uint16_t(s));
         }
     }
@@ -181,7 +181,7 @@ private:
             // s = 0: emitter hit.
             if (v.light && !(settings_.hideEmitters && t == 2) && (useConnections_ || (ppm_ && allDelta))) {
                 Color c = emitterHit(scene, z, t, pdfs);
-                if (!isBlack(c)) record(L, c * (ppm_ ? 1.f : misWeight(pdfs, 0, cfg_)), false, 0, t, pixel);
+                if (!isBlack(c)) record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel);
             }
             if (v.infinite || !v.connectible()) {
                 allDelta = allDelta && v.delta;
@@ -192,11 +192,11 @@ private:
                 PathVertex lv;
                 Connection c;
                 if (t <= maxDepth_ && sampleLightVertex(scene, v.p, rng, lv) && connect(scene, &lv, 1, z, t, c, stats))
-                    record(L, c.contribution * misWeight(c.pdfs, 1, cfg_), false, 1, t, pixel);
+                    record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel);
                 // s >= 2: the pixel's own light subpath.
                 for (int s = 2; s <= ny && s + t - 1 <= maxDepth_; ++s)
                     if (connect(scene, y, s, z, t, c, stats))
-                        record(L, c.contribution * misWeight(c.pdfs, s, cfg_), false, s, t, pixel);
+                        record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel);
             }
             if (useMerging_) {
                 const auto& verts = store_.vertices();
@@ -214,6 +214,13 @@ private:
             allDelta = false;
         }
         return L;
+    }
+
+    // Weight of connection technique (s, t), honouring the debugging options.
+    float connectionWeight(const PathPdfs& pdfs, int s, int t) const {
+        if (settings_.onlyS >= 0) return (s == settings_.onlyS && t == settings_.onlyT) ? 1.f : 0.f;
+        float w = misWeight(pdfs, s, cfg_);
+        return s >= 2 ? w * settings_.testMisScale : w;
     }
 
     void record(Color& L, const Color& c, bool isMerge, int s, int t, uint32_t pixel) const {

@@ -62,6 +62,41 @@ inline SceneDesc cornellBox(int res, BxdfPtr panel, float scale = 1.f) {
     return d;
 }
 
+// A coarse lat-long sphere mesh with smooth (radial) vertex normals: its shading normals differ
+// from the geometric ones, which is what the adjoint correction is about.
+inline MeshDesc smoothSphere(const Vec3& c, float r, int rings, int segs, int bsdf) {
+    MeshDesc m;
+    m.name = "smooth-sphere";
+    for (int i = 0; i <= rings; ++i)
+        for (int j = 0; j <= segs; ++j) {
+            float th = kPi * i / rings, ph = 2 * kPi * j / segs;
+            Vec3 n(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph));
+            m.positions.push_back(c + r * n);
+            m.normals.push_back(n);
+        }
+    auto idx = [&](int i, int j) { return uint32_t(i * (segs + 1) + j); };
+    for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < segs; ++j) {
+            uint32_t a = idx(i, j), b = idx(i + 1, j), cc = idx(i + 1, j + 1), d = idx(i, j + 1);
+            if (i > 0) m.indices.insert(m.indices.end(), {a, cc, b});
+            if (i < rings - 1) m.indices.insert(m.indices.end(), {a, d, cc});
+        }
+    m.bsdf = bsdf;
+    return m;
+}
+
+// The Cornell box lit by a point light instead of the area light (which stays as a black panel).
+inline SceneDesc cornellBoxPointLight(int res, BxdfPtr panel) {
+    SceneDesc d = cornellBox(res, panel);
+    d.meshes.back().emitter = -1;  // the light panel stays as black geometry
+    EmitterDesc& e = d.emitters[0];
+    e = EmitterDesc{};
+    e.type = EmitterType::Point;
+    e.position = Vec3(0.1f, 0.7f, 0.2f);
+    e.value = Color(2.f, 1.8f, 1.5f);
+    return d;
+}
+
 // White furnace: the camera inside a closed sphere (normals inwards) of diffuse albedo `albedo`
 // that also emits radiance 1. Every pixel's radiance is sum_k albedo^k over the allowed bounces.
 inline SceneDesc furnace(int res, float albedo) {
