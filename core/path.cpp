@@ -182,7 +182,7 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
         if (k > base) r *= remap(pdfs.fromLight[k - 1]) / remap(pdfs.fromCamera[k - 1]);
         if (validVC(k)) sum += r * r;
         if (k < n && validVM(k)) {
-            double q = r * vm * double(pdfs.fromLight[k]);
+            double q = r * vm * remap(pdfs.fromLight[k]);
             sum += q * q;
         }
     }
@@ -191,7 +191,7 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
         r *= remap(pdfs.fromCamera[k]) / remap(pdfs.fromLight[k]);
         if (validVC(k)) sum += r * r;
         if (validVM(k)) {
-            double q = r * vm * double(pdfs.fromLight[k]);
+            double q = r * vm * remap(pdfs.fromLight[k]);
             sum += q * q;
         }
     }
@@ -206,7 +206,10 @@ float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
 }
 
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
-    double own = double(cfg.mergeArea) * double(cfg.lightPaths) * double(pdfs.fromLight[i]);
+    // A density stored as 0 marks a vertex sampled through a delta lobe; as in the connection
+    // ratios it is remapped to 1 (the delta factor is common to every technique that can merge here).
+    double pl = pdfs.fromLight[i] != 0.f ? double(pdfs.fromLight[i]) : 1.0;
+    double own = double(cfg.mergeArea) * double(cfg.lightPaths) * pl;
     double sum = misSum(pdfs, i, cfg);
     return sum > 0.0 ? float(own * own / sum) : 0.f;
 }
