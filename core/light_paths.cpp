@@ -7,6 +7,7 @@ void HashGrid::build(const std::vector<PathVertex>& vertices, const std::vector<
     radius_ = radius;
     cellStarts_.clear();
     sorted_.clear();
+    sortedPos_.clear();
     if (items.empty()) return;
     lo_ = Vec3(kInf);
     for (uint32_t i : items) lo_ = glm::min(lo_, vertices[i].p);
@@ -23,6 +24,8 @@ void HashGrid::build(const std::vector<PathVertex>& vertices, const std::vector<
     sorted_.resize(items.size());
     std::vector<uint32_t> fill(cellStarts_.begin(), cellStarts_.end() - 1);
     for (size_t k = 0; k < items.size(); ++k) sorted_[fill[cellOf[k]]++] = items[k];
+    sortedPos_.resize(sorted_.size());
+    for (size_t k = 0; k < sorted_.size(); ++k) sortedPos_[k] = vertices[sorted_[k]].p;
 }
 
 }  // namespace lt

@@ -53,10 +53,8 @@ public:
                 for (int dx = 0; dx < 2; ++dx) {
                     uint32_t h = cellHash(c0 + glm::ivec3(dx, dy, dz));
                     for (uint32_t k = cellStarts_[h]; k < cellStarts_[h + 1]; ++k) {
-                        uint32_t idx = sorted_[k];
-                        const PathVertex& v = (*vertices_)[idx];
-                        Vec3 d = v.p - p;
-                        if (glm::dot(d, d) <= r2) f(idx, v);
+                        Vec3 d = sortedPos_[k] - p;  // compact copy: the test touches no PathVertex
+                        if (glm::dot(d, d) <= r2) f(sorted_[k], (*vertices_)[sorted_[k]]);
                     }
                 }
     }
@@ -69,6 +67,7 @@ private:
     }
     const std::vector<PathVertex>* vertices_ = nullptr;
     std::vector<uint32_t> cellStarts_, sorted_;
+    std::vector<Vec3> sortedPos_;
     Vec3 lo_{0.f};
     float invCell_ = 1.f, radius_ = 0.f;
 };
