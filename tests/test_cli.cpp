@@ -136,3 +136,40 @@ TEST_CASE("the external public scenes render at low resolution", "[cli][external
         CHECK(sum / img.pixels.size() > 1e-3);  // lit, not black
     }
 }
+
+TEST_CASE("--strategy-images: per-technique images sum to the rendered image", "[cli][bpt]") {
+    fs::path dir = tempDir("strategies");
+    for (std::string integ : {"bpt", "vcm"}) {
+        fs::path out = dir / (integ + ".exr"), sdir = dir / integ;
+        Run r = run(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml -D res=16 --spp 2 --max-depth 4 --quiet --integrator " +
+                    integ + " -o " + out.string() + " --strategy-images " + sdir.string());
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        lt::Image img = lt::readImage(out.string());
+        lt::Image sum(img.width, img.height);
+        int files = 0;
+        bool sawMerge = false, sawLightTracing = false;
+        for (const auto& e : fs::directory_iterator(sdir)) {
+            lt::Image s = lt::readImage(e.path().string());
+            for (size_t i = 0; i < s.pixels.size(); ++i) sum.pixels[i] += s.pixels[i];
+            ++files;
+            sawMerge |= e.path().filename().string().rfind("merge_", 0) == 0;
+            sawLightTracing |= e.path().filename().string().find("_t1.exr") != std::string::npos;
+        }
+        CHECK(files >= 6);
+        CHECK(sawLightTracing);
+        CHECK(sawMerge == (integ == "vcm"));
+        for (size_t i = 0; i < img.pixels.size(); ++i)
+            for (int c = 0; c < 3; ++c) CHECK(sum.pixels[i][c] == Approx(img.pixels[i][c]).epsilon(1e-4).margin(1e-6));
+    }
+}
+
+TEST_CASE("the scene's integrator type selects the integrator; --integrator overrides it", "[cli][bpt]") {
+    fs::path dir = tempDir("xmlinteg");
+    Run r = run(std::string(LT_SOURCE_DIR) + "/tests/data/sds/sds.xml --spp 1 --quiet -o " + (dir / "a.exr").string());
+    INFO(r.output);
+    CHECK(r.code == 0);
+    CHECK(r.output.rfind("vcm:", 0) == 0);  // sds.xml asks for vcm
+    r = run(std::string(LT_SOURCE_DIR) + "/tests/data/sds/sds.xml --spp 1 --quiet --integrator ppm -o " + (dir / "b.exr").string());
+    CHECK(r.output.rfind("ppm:", 0) == 0);
+}
