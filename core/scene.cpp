@@ -293,21 +293,14 @@ bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3&
     Vec3 d = b - a;
     float len = glm::length(d);
     if (!(len > 0.f)) return false;
-    Ray r;
-    r.o = a;
-    r.d = d / len;
-    r.tMin = 0.f;
-    r.tMax = len * (1.f - 1e-5f);
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    RTCRay rr;
-    fillRay(rr, r);
-    rtcOccluded1(scene_, &ctx, &rr);
-    return rr.tfar < 0.f;
+    return occludedRay(Ray{a, d / len, 0.f, len * (1.f - 1e-5f)});
 }
 
 bool Scene::occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
-    Ray r = (n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir);
+    return occludedRay((n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir));
+}
+
+bool Scene::occludedRay(const Ray& r) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRay rr;

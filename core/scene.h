@@ -39,6 +39,7 @@ public:
     bool occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
     // A ray towards infinity (direction dir) from a surface point.
     bool occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const;
+    bool occludedRay(const Ray& r) const;
 
     // Ray leaving surface point p (geometric normal ng) in direction d, offset to the side of d.
     Ray spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const;

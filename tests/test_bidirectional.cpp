@@ -270,9 +270,11 @@ TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation; weights sum to on
     CHECK(grazingPaths * 1000 < checkedPaths);
 }
 
-TEST_CASE("bidirectional integrators never produce NaN, Inf or negative pixels on delta-only scenes", "[bpt]") {
+TEST_CASE("no integrator produces NaN, Inf or negative pixels with point/spot lights, mirrors, glass",
+          "[pt][bpt]") {
     for (BxdfPtr m : {makeDielectric(1.5f), makeConductor(Color(0.2f), Color(3.f), Color(1.f)),
-                      makeRoughDielectric(MicrofacetType::GGX, 1e-4f, 1e-4f, 1.f)}) {
+                      makeRoughDielectric(MicrofacetType::GGX, 1e-4f, 1e-4f, 1.f),
+                      makeRoughConductor(MicrofacetType::Beckmann, 0.01f, 0.01f, Color(0.2f), Color(3.f), Color(1.f))}) {
         SceneDesc d = cornellBoxPointLight(16, m);
         EmitterDesc spot;
         spot.type = EmitterType::Spot;
@@ -280,7 +282,7 @@ TEST_CASE("bidirectional integrators never produce NaN, Inf or negative pixels o
         spot.direction = Vec3(0, -1, 0);
         spot.value = Color(3.f);
         d.emitters.push_back(spot);
-        for (std::string integ : {"bpt", "lt", "vcm", "ppm"}) {
+        for (std::string integ : {"pt", "bpt", "lt", "vcm", "ppm"}) {
             RenderSettings s;
             s.integrator = integ;
             s.spp = 4;
