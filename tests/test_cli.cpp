@@ -173,3 +173,20 @@ TEST_CASE("the scene's integrator type selects the integrator; --integrator over
     r = run(std::string(LT_SOURCE_DIR) + "/tests/data/sds/sds.xml --spp 1 --quiet --integrator ppm -o " + (dir / "b.exr").string());
     CHECK(r.output.rfind("ppm:", 0) == 0);
 }
+
+TEST_CASE("--time renders passes until the time is up", "[cli]") {
+    fs::path dir = tempDir("time");
+    fs::path stats = dir / "s.json";
+    Run r = run(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml -D res=16 --time 0.5 --quiet -o " +
+                (dir / "t.exr").string() + " --stats-json " + stats.string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    std::ifstream f(stats);
+    std::string json((std::istreambuf_iterator<char>(f)), {});
+    std::smatch m;
+    REQUIRE(std::regex_search(json, m, std::regex(R"re("spp": (\d+))re")));
+    CHECK(std::stoi(m[1]) >= 2);  // a 16x16 pass takes well under a millisecond
+    REQUIRE(std::regex_search(json, m, std::regex(R"re("seconds": ([0-9.e+-]+))re")));
+    CHECK(std::stod(m[1]) >= 0.5);
+    CHECK(std::stod(m[1]) < 5.0);
+}
