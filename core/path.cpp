@@ -2,14 +2,6 @@
 
 namespace lt {
 
-AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& from, const PathVertex& to) {
-    if (to.infinite) return AreaPdf(pdf.value);
-    Vec3 d = to.p - from.p;
-    float d2 = glm::dot(d, d);
-    if (!(d2 > 0.f)) return AreaPdf(0.f);
-    float c = to.onSurface() ? std::abs(glm::dot(to.ng, d)) / std::sqrt(d2) : 1.f;
-    return AreaPdf(pdf.value * c / d2);
-}
 
 // MIS densities must be functions of the path's vertices alone: the sampled ray left from an
 // offset origin, so the densities of the segment path[i-1] -> path[i] are re-evaluated with the
@@ -175,10 +167,19 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     };
     auto validVM = [&](int i) { return cfg.merging && i >= 1 && i <= n - 2 && !pdfs.delta[i]; };
     const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
+    // The range of k in which a technique may be valid, to stop the ratio chains early.
+    int kMin = 0, kMax = n;
+    switch (cfg.set) {
+        case TechniqueSet::PathTracer: kMax = 1; break;
+        case TechniqueSet::LightTracer: kMin = kMax = n - 1; break;
+        case TechniqueSet::None: kMin = n; kMax = 0; break;
+        case TechniqueSet::Bidirectional: break;
+    }
+    if (cfg.merging) kMin = std::min(kMin, 1), kMax = std::max(kMax, n - 2);
     double sum = 0.0;
     // ratio = p_VC(k) / p_VC(base); p_VC(k) / p_VC(k-1) = pL[k-1] / pC[k-1].
     double r = 1.0;
-    for (int k = base; k <= n; ++k) {
+    for (int k = base; k <= std::max(kMax, base); ++k) {
         if (k > base) r *= remap(pdfs.fromLight[k - 1]) / remap(pdfs.fromCamera[k - 1]);
         if (validVC(k)) sum += r * r;
         if (k < n && validVM(k)) {
@@ -187,7 +188,7 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
         }
     }
     r = 1.0;
-    for (int k = base - 1; k >= 0; --k) {
+    for (int k = base - 1; k >= std::min(kMin, base); --k) {
         r *= remap(pdfs.fromCamera[k]) / remap(pdfs.fromLight[k]);
         if (validVC(k)) sum += r * r;
         if (validVM(k)) {

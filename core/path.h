@@ -46,7 +46,14 @@ struct PathVertex {
 };
 
 // Area density at `to` of a solid-angle density at `from` (no conversion for a vertex at infinity).
-AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& from, const PathVertex& to);
+inline AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& from, const PathVertex& to) {
+    if (to.infinite) return AreaPdf(pdf.value);
+    Vec3 d = to.p - from.p;
+    float d2 = glm::dot(d, d);
+    if (!(d2 > 0.f)) return AreaPdf(0.f);
+    float c = to.onSurface() ? std::abs(glm::dot(to.ng, d)) / std::sqrt(d2) : 1.f;
+    return AreaPdf(pdf.value * c / d2);
+}
 
 struct WalkStats {
     uint64_t rays = 0;
