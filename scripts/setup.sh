@@ -10,7 +10,7 @@ action="${1:-render}"
 
 PACKAGES=(build-essential cmake ninja-build pkg-config
   libembree-dev libopenexr-dev libglm-dev libtbb-dev catch2 libcli11-dev libpugixml-dev
-  libtinyobjloader-dev libstb-dev nlohmann-json3-dev libfmt-dev zlib1g-dev)
+  libtinyobjloader-dev libstb-dev nlohmann-json3-dev libfmt-dev zlib1g-dev gnuplot-nox)
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -137,7 +137,7 @@ TEST_CASE("the external public scenes render at low resolution", "[cli][external
     }
 }
 
-TEST_CASE("--strategy-images: per-technique images sum to the rendered image", "[cli][bpt]") {
+TEST_CASE("render with --strategy-images writes per-technique images that sum to the image", "[cli][bpt]") {
     fs::path dir = tempDir("strategies");
     for (std::string integ : {"bpt", "vcm"}) {
         fs::path out = dir / (integ + ".exr"), sdir = dir / integ;
@@ -174,7 +174,7 @@ TEST_CASE("the scene's integrator type selects the integrator; --integrator over
     CHECK(r.output.rfind("ppm:", 0) == 0);
 }
 
-TEST_CASE("--time renders passes until the time is up", "[cli]") {
+TEST_CASE("render with --time runs passes until the time is up", "[cli]") {
     fs::path dir = tempDir("time");
     fs::path stats = dir / "s.json";
     Run r = run(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml -D res=16 --time 0.5 --quiet -o " +

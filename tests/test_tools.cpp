@@ -1,0 +1,413 @@
+// The speed-against-error tools end to end (docs/tools.md): convergence (slope of relMSE against
+// spp for an unbiased method, the CSV columns, the plots), biasvar (PT unbiased by a z-test; VCM
+// and PPM biased with a bias that falls), reference + merge (sample-weighted merging, scene hash,
+// caching), report (well-formed XHTML, optional headless-chromium screenshot) and a bench smoke run.
+// Every test renders tiny images (16x16 or 32x32) with fixed seeds.
+#include <catch2/catch.hpp>
+#include <stb/stb_image.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <nlohmann/json.hpp>
+#include <pugixml.hpp>
+#include "core/image.h"
+#include "core/metrics.h"
+#include "tools/analysis.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+struct Run {
+    int code = -1;
+    std::string output;
+};
+
+Run sh(const std::string& cmd) {
+    Run r;
+    FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+    REQUIRE(p);
+    std::array<char, 4096> buf;
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
+    int status = pclose(p);
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return r;
+}
+
+std::string tool(const std::string& name) { return std::string(LT_TOOLS_DIR) + "/" + name; }
+std::string scene(const std::string& name) { return std::string(LT_SOURCE_DIR) + "/scenes/" + name; }
+
+fs::path tempDir(const std::string& name) {
+    fs::path d = fs::temp_directory_path() / ("lt_tools_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+}
+
+json readJson(const fs::path& p) { return json::parse(lt::analysis::readFile(p.string())); }
+
+bool isPng(const fs::path& p) {
+    if (!fs::exists(p) || fs::file_size(p) < 100) return false;
+    std::string s = lt::analysis::readFile(p.string());
+    return s.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0;
+}
+
+// The cornell box, tiny and shallow, and its PT reference rendered by the `reference` tool.
+fs::path makeReference(const fs::path& dir, int res, int spp, const std::string& extra = "") {
+    fs::path ref = dir / "ref.exr";
+    Run r = sh(tool("reference") + " " + scene("cornell-box.xml") + " -D res=" + std::to_string(res) +
+               " -D max_depth=4 --spp " + std::to_string(spp) + " --chunks 2 -o " + ref.string() + " " + extra);
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    return ref;
+}
+
+}  // namespace
+
+TEST_CASE("convergence: PT relMSE falls as spp^-1, the CSV has the documented columns, the plots exist", "[tools][convergence]") {
+    fs::path dir = tempDir("conv");
+    // Reference: 4096 spp. Checkpoints go to 64 spp, so the reference's own noise adds at most
+    // 64/4096 = 1.6% to the last relMSE (a slope change below 0.01).
+    fs::path ref = makeReference(dir, 32, 4096);
+    Run r = sh(tool("convergence") + " " + scene("cornell-box.xml") + " -D res=32 -D max_depth=4 -r " + ref.string() +
+               " -c pt -c 'pt --pt-strategy bsdf --label PT-bsdf' --spp 64 --seed 1 -o " + (dir / "conv").string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    json j = readJson(dir / "conv/convergence.json");
+    REQUIRE(j["configs"].size() == 2);
+    // Tolerance: over seeds 1..30 this setup gave slopes with mean -0.99 and standard deviation 0.04
+    // (min -1.07, max -0.91); +-0.15 is about 4 standard deviations, while a wrong reference, a
+    // biased estimator or a sqrt(N) error law lands far outside (checked below).
+    double slope = j["configs"][0]["slope_spp"].get<double>();
+    CHECK(j["configs"][0]["label"] == "pt");
+    CHECK(slope == Approx(-1.0).margin(0.15));
+    CHECK(j["configs"][1]["label"] == "PT-bsdf");
+    CHECK(j["configs"][1]["slope_spp"].get<double>() < -0.5);
+
+    // CSV: the documented columns; the last row of each configuration is its final image's error.
+    std::ifstream csv(dir / "conv/convergence.csv");
+    std::string line;
+    REQUIRE(std::getline(csv, line));
+    CHECK(line == "config,spp,seconds,mse,relmse,rmsre,mape");
+    std::map<std::string, std::vector<std::vector<std::string>>> rows;
+    while (std::getline(csv, line)) {
+        auto f = lt::analysis::splitCsvLine(line);
+        REQUIRE(f.size() == 7);
+        rows[f[0]].push_back(f);
+    }
+    REQUIRE(rows.size() == 2);
+    std::vector<std::string> spps;
+    for (const auto& f : rows["pt"]) spps.push_back(f[1]);
+    for (const char* s : {"1", "2", "4", "8", "16", "32", "64"})
+        CHECK(std::find(spps.begin(), spps.end(), s) != spps.end());
+    double prevSeconds = 0;
+    for (const auto& f : rows["pt"]) {
+        CHECK(std::stod(f[2]) >= prevSeconds);
+        prevSeconds = std::stod(f[2]);
+    }
+    lt::Image img = lt::readImage((dir / "conv/images/pt.exr").string());
+    lt::ErrorMetrics m = lt::computeMetrics(img, lt::readImage(ref.string()));
+    CHECK(rows["pt"].back()[1] == "64");
+    CHECK(std::stod(rows["pt"].back()[4]) == Approx(m.relMse).epsilon(1e-6));
+    CHECK(std::stod(rows["pt"].back()[5]) == Approx(m.rmsRelErr).epsilon(1e-6));
+    CHECK(std::stod(rows["pt"].back()[3]) == Approx(m.mse).epsilon(1e-6));
+    CHECK(std::stod(rows["pt"].back()[6]) == Approx(m.mape).epsilon(1e-6));
+
+    if (lt::analysis::gnuplotAvailable()) {
+        CHECK(isPng(dir / "conv/convergence.png"));
+        std::string svg = lt::analysis::readFile((dir / "conv/convergence.svg").string());
+        CHECK(svg.find("<svg") != std::string::npos);
+        CHECK(svg.find("slope") != std::string::npos);            // slopes in the legend
+        CHECK(svg.find("samples per pixel") != std::string::npos);  // labelled axes
+        CHECK(svg.find("render time [s]") != std::string::npos);
+    } else {
+        WARN("SKIPPED the plot checks: gnuplot is not installed (Debian package gnuplot-nox)");
+    }
+    CHECK(fs::file_size(dir / "conv/convergence.gp") > 0);
+
+    // The check can fail: against the reference of a different scene (max_depth 2 instead of 4)
+    // the error stops falling and the slope flattens.
+    Run bad = sh(tool("convergence") + " " + scene("cornell-box.xml") + " -D res=32 -D max_depth=2 -r " + ref.string() +
+                 " -c pt --spp 64 --seed 1 --no-images -o " + (dir / "bad").string());
+    REQUIRE(bad.code == 0);
+    CHECK(readJson(dir / "bad/convergence.json")["configs"][0]["slope_spp"].get<double>() > -0.6);
+
+    // Bad input: a reference of the wrong size is refused with exit code 2.
+    Run size = sh(tool("convergence") + " " + scene("cornell-box.xml") + " -D res=16 -r " + ref.string() + " -c pt --spp 2 -o " +
+                  (dir / "x").string());
+    CHECK(size.code == 2);
+    CHECK(size.output.find("32x32") != std::string::npos);
+    Run cfg = sh(tool("convergence") + " " + scene("cornell-box.xml") + " -D res=32 -r " + ref.string() + " -c 'nope' -o " +
+                 (dir / "x").string());
+    CHECK(cfg.code == 1);
+    CHECK(cfg.output.find("nope") != std::string::npos);
+    fs::remove_all(dir);
+}
+
+TEST_CASE("biasvar: the PT bias^2 is indistinguishable from zero and a wrong depth is detected", "[tools][biasvar]") {
+    fs::path dir = tempDir("bvpt");
+    // 16 runs x 8 spp = 128 samples per pixel per level against a 4096-spp reference: the
+    // reference's variance adds var/4096 to E[bias2_hat], at most 0.35 standard errors here.
+    fs::path ref = makeReference(dir, 16, 4096);
+    Run r = sh(tool("biasvar") + " " + scene("cornell-box.xml") + " -D res=16 -D max_depth=4 -r " + ref.string() +
+               " -c pt -k 16 --spp 2 --spp 8 -o " + (dir / "bv").string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    json j = readJson(dir / "bv/biasvar.json");
+    REQUIRE(j["configs"].size() == 1);
+    REQUIRE(j["configs"][0]["levels"].size() == 2);
+    // Two-sided z-test of H0: bias^2 = 0 at significance 0.001 per test (|z| < 3.29); 4 tests, so
+    // the family-wise false-alarm rate is below 0.4% (and the seeds are fixed).
+    for (const auto& lvl : j["configs"][0]["levels"]) {
+        for (const char* kind : {"absolute", "relative"}) {
+            INFO("spp " << lvl["spp"] << " " << kind << ": " << lvl[kind].dump());
+            CHECK(std::abs(lvl[kind]["bias2_z"].get<double>()) < 3.29);
+            CHECK(lvl[kind]["check_ok"].get<bool>());
+            CHECK(lvl[kind]["identity_rel_diff"].get<double>() < 1e-5);
+            CHECK(lvl[kind]["variance"].get<double>() > 0);
+        }
+    }
+    // Variance of one render falls as 1/spp: 4x the spp, about a quarter of the variance.
+    double v2 = j["configs"][0]["levels"][0]["relative"]["variance"], v8 = j["configs"][0]["levels"][1]["relative"]["variance"];
+    CHECK(v2 / v8 == Approx(4.0).epsilon(0.35));
+    for (const char* f : {"mean.exr", "variance.exr", "bias2.exr", "mse.exr", "variance.png", "bias2.png"})
+        CHECK(fs::exists(dir / "bv/pt/spp8" / f));
+    lt::Image var = lt::readImage((dir / "bv/pt/spp8/variance.exr").string());
+    CHECK(var.width == 16);
+    if (lt::analysis::gnuplotAvailable()) CHECK(isPng(dir / "bv/biasvar.png"));
+
+    // The test has power: paths cut at 2 segments (direct light only) against the 4-segment
+    // reference are biased, and the z-test says so at every spp.
+    Run b = sh(tool("biasvar") + " " + scene("cornell-box.xml") + " -D res=16 -D max_depth=2 -r " + ref.string() +
+               " -c pt -k 16 --spp 2 --spp 8 -o " + (dir / "bv2").string());
+    REQUIRE(b.code == 0);
+    for (const auto& lvl : readJson(dir / "bv2/biasvar.json")["configs"][0]["levels"]) {
+        CHECK(lvl["relative"]["bias2_z"].get<double>() > 3.29);
+        CHECK(lvl["relative"]["biased"].get<bool>());
+    }
+    fs::remove_all(dir);
+}
+
+TEST_CASE("biasvar: VCM and PPM have a positive bias^2 that falls with spp", "[tools][biasvar]") {
+    std::vector<std::string> names;
+    for (const char* n : {"ppm", "vcm"})
+        if (lt::analysis::integratorAvailable(n)) names.push_back(n);
+    if (names.empty()) {
+        WARN("SKIPPED: neither ppm nor vcm is available in this build (supported: " << lt::supportedIntegrators() << ")");
+        return;
+    }
+    fs::path dir = tempDir("bvvcm");
+    fs::path ref = makeReference(dir, 32, 2048);
+    // A large initial radius (0.4 in a room of size 2) and fast reduction (alpha 0.5: r_i = r_0 i^-1/4)
+    // make the bias clear at 1 spp and visibly smaller at 64 spp.
+    std::string cmd = tool("biasvar") + " " + scene("cornell-box.xml") + " -D res=32 -D max_depth=4 -r " + ref.string() +
+                      " -k 12 --spp 1 --spp 8 --spp 64 -o " + (dir / "bv").string();
+    for (const auto& n : names) cmd += " -c '" + n + " --radius 0.4 --radius-alpha 0.5'";
+    Run r = sh(cmd);
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    json j = readJson(dir / "bv/biasvar.json");
+    REQUIRE(j["configs"].size() == names.size());
+    for (const auto& c : j["configs"]) {
+        INFO(c["label"]);
+        const json& lo = c["levels"].front()["relative"];
+        const json& hi = c["levels"].back()["relative"];
+        // Biased at 1 spp (one-sided z > 3.29) ...
+        CHECK(lo["bias2_z"].get<double>() > 3.29);
+        // ... and the bias falls: the drop from 1 to 64 spp is more than 3 standard errors (the
+        // levels are nested renders, positively correlated, so this is conservative).
+        double drop = lo["bias2"].get<double>() - hi["bias2"].get<double>();
+        double se = std::hypot(lo["bias2_stderr"].get<double>(), hi["bias2_stderr"].get<double>());
+        CHECK(drop > 3 * se);
+        CHECK(hi["bias2"].get<double>() > 0);
+    }
+    fs::remove_all(dir);
+}
+
+TEST_CASE("merge: sample-weighted average from sidecars, and reference: chunks, hash, caching", "[tools][merge]") {
+    fs::path dir = tempDir("merge");
+    std::string base = std::string(LT_RENDER_BIN) + " " + scene("cornell-box.xml") + " -D res=16 -D max_depth=4 --quiet ";
+    struct R { const char* name; int spp; int seed; };
+    for (R x : {R{"a", 3, 11}, R{"b", 5, 12}, R{"c", 8, 13}}) {
+        std::string p = (dir / x.name).string();
+        Run r = sh(base + "--spp " + std::to_string(x.spp) + " --seed " + std::to_string(x.seed) + " -o " + p + ".exr --stats-json " + p + ".json");
+        REQUIRE(r.code == 0);
+    }
+    Run m = sh(tool("merge") + " -o " + (dir / "m.exr").string() + " " + (dir / "a.exr").string() + " " + (dir / "b.exr").string());
+    INFO(m.output);
+    REQUIRE(m.code == 0);
+    lt::Image a = lt::readImage((dir / "a.exr").string()), b = lt::readImage((dir / "b.exr").string());
+    lt::Image merged = lt::readImage((dir / "m.exr").string());
+    double maxRel = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i)
+        for (int c = 0; c < 3; ++c) {
+            double want = (3.0 * a.pixels[i][c] + 5.0 * b.pixels[i][c]) / 8.0;
+            maxRel = std::max(maxRel, std::abs(merged.pixels[i][c] - want) / std::max(1e-6, std::abs(want)));
+        }
+    CHECK(maxRel < 1e-6);
+    json mj = readJson(dir / "m.json");
+    CHECK(mj["spp"].get<double>() == 8);
+    CHECK(mj["inputs"][0]["weight"].get<double>() == Approx(3.0 / 8.0));
+    CHECK(fs::exists(dir / "m.png"));
+    // Weights from --spp override the sidecars.
+    REQUIRE(sh(tool("merge") + " -o " + (dir / "m2.exr").string() + " --spp 1 --spp 1 " + (dir / "a.exr").string() + " " +
+               (dir / "b.exr").string()).code == 0);
+    lt::Image m2 = lt::readImage((dir / "m2.exr").string());
+    CHECK(m2.pixels[37].y == Approx(0.5f * (a.pixels[37].y + b.pixels[37].y)).epsilon(1e-6));
+    // Inputs with the same seed are not independent: refused.
+    Run same = sh(tool("merge") + " -o " + (dir / "m3.exr").string() + " " + (dir / "a.exr").string() + " " + (dir / "a.exr").string());
+    CHECK(same.code == 1);
+    CHECK(same.output.find("seed") != std::string::npos);
+    // The merged halves (3 + 5 spp) are as good as the 8-spp render: same error against the
+    // 8-spp render's expectation up to noise (both are 8-spp estimates).
+    fs::path ref = makeReference(dir, 16, 1024, "--seed 99");
+    lt::Image refImg = lt::readImage(ref.string()), c8 = lt::readImage((dir / "c.exr").string());
+    double e1 = lt::computeMetrics(merged, refImg).relMse, e2 = lt::computeMetrics(c8, refImg).relMse;
+    CHECK(e1 / e2 == Approx(1.0).margin(0.5));
+
+    // reference: the merged image is the spp-weighted mean of its chunks, each an ordinary render
+    // with seed + i; the sidecar records the command and the scene hash.
+    fs::path rdir = dir / "r";
+    fs::create_directories(rdir);
+    Run rr = sh(tool("reference") + " " + scene("cornell-box.xml") + " -D res=16 -D max_depth=4 --spp 10 --chunks 2 --seed 500 -o " + (rdir / "ref.exr").string());
+    INFO(rr.output);
+    REQUIRE(rr.code == 0);
+    json rj = readJson(rdir / "ref.json");
+    CHECK(rj["spp"] == 10);
+    CHECK(rj["scene_sha256"].get<std::string>().size() == 64);
+    CHECK(rj["command"].get<std::string>().find("--spp 10") != std::string::npos);
+    CHECK(rj["scene_files"].size() == 3);  // the scene and its two included fragments
+    CHECK(rj["chunks"][1]["seed"] == 501);
+    REQUIRE(sh(base + "--spp 5 --seed 500 -o " + (rdir / "c0.exr").string()).code == 0);
+    lt::Image c0 = lt::readImage((rdir / "c0.exr").string()), ch0 = lt::readImage((rdir / "ref.chunks/chunk0.exr").string());
+    lt::Image ch1 = lt::readImage((rdir / "ref.chunks/chunk1.exr").string()), full = lt::readImage((rdir / "ref.exr").string());
+    for (size_t i = 0; i < c0.pixels.size(); i += 7) {
+        CHECK(ch0.pixels[i].x == c0.pixels[i].x);
+        CHECK(full.pixels[i].z == Approx(0.5 * (ch0.pixels[i].z + ch1.pixels[i].z)).epsilon(1e-6));
+    }
+    Run again = sh(tool("reference") + " " + scene("cornell-box.xml") + " -D res=16 -D max_depth=4 --spp 10 --chunks 2 --seed 500 -o " + (rdir / "ref.exr").string());
+    CHECK(again.output.find("up to date") != std::string::npos);
+    // The hash covers included files: a changed fragment makes the reference stale.
+    fs::path sc = dir / "scene";
+    fs::create_directories(sc / "fragments");
+    for (const char* f : {"cornell-box.xml", "fragments/cornell-room.xml", "fragments/cornell-light.xml"})
+        fs::copy_file(scene(f), sc / f);
+    std::string rcmd = tool("reference") + " " + (sc / "cornell-box.xml").string() + " -D res=16 --spp 2 --chunks 2 -o " + (sc / "ref.exr").string();
+    REQUIRE(sh(rcmd).code == 0);
+    CHECK(sh(rcmd + " --check").code == 0);
+    { std::ofstream(sc / "fragments/cornell-light.xml", std::ios::app) << "<!-- changed -->\n"; }
+    CHECK(sh(rcmd + " --check").code == 5);
+    fs::remove_all(dir);
+}
+
+namespace {
+
+// Well-formedness of an XHTML page with pugixml; returns the error or "".
+std::string xmlError(const std::string& text, pugi::xml_document& doc) {
+    pugi::xml_parse_result res = doc.load_string(text.c_str(), pugi::parse_default | pugi::parse_doctype);
+    return res ? std::string() : std::string(res.description()) + " at offset " + std::to_string(res.offset);
+}
+
+}  // namespace
+
+TEST_CASE("report: a well-formed self-contained page with table, images, crops, maps and plots", "[tools][report]") {
+    pugi::xml_document broken;
+    REQUIRE_FALSE(xmlError("<html><body><p>unclosed</body></html>", broken).empty());  // the check can fail
+
+    fs::path dir = tempDir("report");
+    fs::path ref = makeReference(dir, 16, 1024);
+    std::string common = scene("cornell-box.xml") + " -D res=16 -D max_depth=4 -r " + ref.string() + " -c pt -c 'pt --pt-strategy nee'";
+    REQUIRE(sh(tool("convergence") + " " + common + " --spp 16 -o " + (dir / "conv").string()).code == 0);
+    REQUIRE(sh(tool("biasvar") + " " + common + " -k 4 --spp 2 --spp 4 -o " + (dir / "bv").string()).code == 0);
+    fs::path html = dir / "page.html";
+    Run r = sh(tool("report") + " --convergence " + (dir / "conv").string() + " --biasvar " + (dir / "bv").string() +
+               " --crop 2,2,6,6 --crop 8,0,8,4 -o " + html.string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    std::string text = lt::analysis::readFile(html.string());
+    pugi::xml_document doc;
+    std::string err = xmlError(text, doc);
+    INFO(err);
+    REQUIRE(err.empty());
+    pugi::xml_node root = doc.child("html");
+    REQUIRE(root);
+    CHECK(root.child("head").child("title"));
+    pugi::xml_node body = root.child("body");
+    REQUIRE(body);
+    // The table: a header and one row per configuration with the listed columns.
+    pugi::xml_node table = body.find_node([](pugi::xml_node n) { return std::string(n.name()) == "table"; });
+    REQUIRE(table);
+    std::vector<pugi::xml_node> trs;
+    for (auto tr : table.children("tr")) trs.push_back(tr);
+    REQUIRE(trs.size() == 3);
+    std::string head;
+    for (auto th : trs[0].children("th")) head += std::string(th.text().get()) + "|";
+    for (const char* col : {"time [s]", "spp", "relMSE", "RMS-RE", "MAPE", "bias", "variance"})
+        CHECK(head.find(col) != std::string::npos);
+    CHECK(std::string(trs[1].first_child().text().get()) == "pt");
+    // bias and variance were filled in from biasvar (not a dash).
+    std::vector<std::string> cells;
+    for (auto td : trs[1].children("td")) cells.push_back(td.text().get());
+    CHECK(cells[7].find("\u00b1") != std::string::npos);
+    // Images: reference + 2 renders, 2 crops x 3, 2 error maps, 2 plots, 2 x 2 bias/variance maps;
+    // all embedded as data URIs (self-contained).
+    int imgs = 0, dataUris = 0;
+    for (auto n : body.select_nodes("//img")) {
+        ++imgs;
+        std::string src = n.node().attribute("src").value();
+        if (src.rfind("data:image/png;base64,", 0) == 0 || src.rfind("data:image/svg+xml;base64,", 0) == 0) ++dataUris;
+    }
+    CHECK(imgs == 3 + 6 + 2 + (lt::analysis::gnuplotAvailable() ? 2 : 0) + 4);
+    CHECK(dataUris == imgs);
+    CHECK(text.find("file://") == std::string::npos);
+    CHECK(text.find("http://") == text.find("http://www.w3.org/1999/xhtml"));  // nothing fetched from the net
+
+    // A bad crop is refused.
+    CHECK(sh(tool("report") + " --convergence " + (dir / "conv").string() + " --crop 10,10,10,10 -o " + (dir / "x.html").string()).code == 1);
+
+    // Rendered by a browser, where one is installed (not required).
+    if (!fs::exists("/usr/bin/chromium")) {
+        WARN("SKIPPED the screenshot: /usr/bin/chromium is not installed");
+        fs::remove_all(dir);
+        return;
+    }
+    fs::path profile = dir / "chromium-profile", shot = dir / "shot.png";
+    Run c = sh("timeout 120 /usr/bin/chromium --headless --no-sandbox --disable-gpu --disable-background-networking "
+               "--disable-component-update --disable-sync --no-first-run --user-data-dir=" + profile.string() +
+               " --screenshot=" + shot.string() + " --window-size=1200,900 file://" + html.string());
+    INFO(c.output);
+    REQUIRE(isPng(shot));
+    int w = 0, h = 0, n = 0;
+    unsigned char* px = stbi_load(shot.string().c_str(), &w, &h, &n, 3);
+    REQUIRE(px);
+    CHECK(w == 1200);
+    // Not a blank page: the pixels vary.
+    double sum = 0, sq = 0;
+    for (int i = 0; i < w * h * 3; ++i) sum += px[i], sq += double(px[i]) * px[i];
+    stbi_image_free(px);
+    double mean = sum / (w * h * 3), var = sq / (w * h * 3) - mean * mean;
+    CHECK(var > 100.0);
+    fs::remove_all(dir);
+}
+
+TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machine", "[tools][bench]") {
+    fs::path dir = tempDir("bench");
+    Run r = sh(tool("bench") + " --scenes " + scene("cornell-box.xml") + " --integrators pt --time 0.2 --ref-time 0.5 "
+               "--res 16 --out-dir " + (dir / "out").string() + " -o " + (dir / "B.md").string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    std::string md = lt::analysis::readFile((dir / "B.md").string());
+    CHECK(md.find("| integrator | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE |") != std::string::npos);
+    CHECK(std::regex_search(md, std::regex(R"(\| pt \| [0-9.]+ \| [0-9]+ \| [0-9.e+]+ \| [0-9.e+-]+ \|)")));
+    CHECK(md.find("nproc") != std::string::npos);
+    CHECK(md.find("memory") != std::string::npos);
+    CHECK(fs::exists(dir / "out/refs/cornell-box.json"));
+    fs::remove_all(dir);
+}

@@ -1,0 +1,546 @@
+// Shared code of the analysis tools; see analysis.h.
+#include "tools/analysis.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace fs = std::filesystem;
+
+namespace lt::analysis {
+
+// ---------------------------------------------------------------------------------------------
+// Run configurations
+
+namespace {
+
+// Splits on white space; single or double quotes group words ("--label 'PT bsdf'").
+std::vector<std::string> tokenize(const std::string& s) {
+    std::vector<std::string> out;
+    std::string cur;
+    bool have = false;
+    char quote = 0;
+    for (char c : s) {
+        if (quote) {
+            if (c == quote) quote = 0;
+            else cur += c;
+        } else if (c == '\'' || c == '"') {
+            quote = c;
+            have = true;
+        } else if (std::isspace((unsigned char)c)) {
+            if (have) out.push_back(cur), cur.clear(), have = false;
+        } else {
+            cur += c;
+            have = true;
+        }
+    }
+    if (quote) throw std::invalid_argument("unbalanced quote in configuration '" + s + "'");
+    if (have) out.push_back(cur);
+    return out;
+}
+
+double toDouble(const std::string& opt, const std::string& v) {
+    size_t used = 0;
+    double d;
+    try {
+        d = std::stod(v, &used);
+    } catch (const std::exception&) {
+        used = 0;
+    }
+    if (used != v.size() || v.empty() || !std::isfinite(d))
+        throw std::invalid_argument(fmt::format("{} expects a number, got '{}'", opt, v));
+    return d;
+}
+
+int toInt(const std::string& opt, const std::string& v) {
+    double d = toDouble(opt, v);
+    if (d != std::floor(d) || std::abs(d) > 1e9) throw std::invalid_argument(fmt::format("{} expects an integer, got '{}'", opt, v));
+    return int(d);
+}
+
+// RenderSettings grows with the integrators; these set a field only where this build has it.
+template <class S>
+bool setRadius(S& s, double r) {
+    if constexpr (requires { s.radius; }) {
+        s.radius = decltype(s.radius)(r);
+        return true;
+    } else if constexpr (requires { s.initialRadius; }) {
+        s.initialRadius = decltype(s.initialRadius)(r);
+        return true;
+    } else {
+        return false;
+    }
+}
+template <class S>
+bool setAlpha(S& s, double a) {
+    if constexpr (requires { s.radiusAlpha; }) {
+        s.radiusAlpha = decltype(s.radiusAlpha)(a);
+        return true;
+    } else if constexpr (requires { s.alpha; }) {
+        s.alpha = decltype(s.alpha)(a);
+        return true;
+    } else {
+        return false;
+    }
+}
+template <class S>
+bool setOption(S& s, const std::string& k, const std::string& v) {
+    if constexpr (requires { s.options[k] = v; }) {
+        s.options[k] = v;
+        return true;
+    } else {
+        return false;
+    }
+}
+
+}  // namespace
+
+std::string rendererName(const std::string& t) {
+    if (t == "path") return "pt";
+    if (t == "bdpt") return "bpt";
+    if (t == "ptracer") return "lt";
+    if (t == "sppm") return "ppm";
+    return t;
+}
+
+RunConfig parseConfig(const std::string& spec) {
+    std::vector<std::string> w = tokenize(spec);
+    if (w.empty()) throw std::invalid_argument("empty configuration");
+    RunConfig c;
+    c.spec = spec;
+    c.label = spec;
+    if (w[0].starts_with("-")) throw std::invalid_argument("configuration '" + spec + "' must start with an integrator name");
+    c.integrator = rendererName(w[0]);
+    for (size_t i = 1; i < w.size(); ++i) {
+        std::string opt = w[i];
+        if (!opt.starts_with("--") || opt.size() < 3)
+            throw std::invalid_argument(fmt::format("configuration '{}': expected an option --name, got '{}'", spec, opt));
+        std::string val;
+        auto eq = opt.find('=');
+        if (eq != std::string::npos) {
+            val = opt.substr(eq + 1);
+            opt = opt.substr(0, eq);
+        } else if (opt != "--hide-emitters") {
+            if (i + 1 >= w.size()) throw std::invalid_argument(fmt::format("configuration '{}': {} needs a value", spec, opt));
+            val = w[++i];
+        }
+        if (opt == "--pt-strategy") {
+            if (val != "mis" && val != "nee" && val != "bsdf")
+                throw std::invalid_argument(fmt::format("configuration '{}': --pt-strategy is mis, nee or bsdf", spec));
+            c.ptStrategy = val;
+        } else if (opt == "--max-depth") {
+            c.maxDepth = toInt(opt, val);
+            if (*c.maxDepth < -1) throw std::invalid_argument("--max-depth must be >= -1");
+        } else if (opt == "--rr-depth") {
+            c.rrDepth = toInt(opt, val);
+        } else if (opt == "--hide-emitters") {
+            c.hideEmitters = val.empty() || val == "true" || val == "1";
+        } else if (opt == "--radius") {
+            c.radius = toDouble(opt, val);
+        } else if (opt == "--radius-alpha" || opt == "--alpha") {
+            c.radiusAlpha = toDouble(opt, val);
+        } else if (opt == "--label") {
+            if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
+            c.label = val;
+        } else {
+            c.extra[opt.substr(2)] = val;
+        }
+    }
+    return c;
+}
+
+std::vector<RunConfig> readConfigFile(const std::string& path) {
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(readFile(path));
+    } catch (const nlohmann::json::exception& e) {
+        throw std::invalid_argument(fmt::format("{}: not valid JSON: {}", path, e.what()));
+    }
+    if (j.is_object() && j.contains("configs")) j = j["configs"];
+    if (!j.is_array()) throw std::invalid_argument(path + ": expected a list of configurations or {\"configs\": [...]}");
+    std::vector<RunConfig> out;
+    for (const auto& e : j) {
+        if (e.is_string()) {
+            out.push_back(parseConfig(e.get<std::string>()));
+        } else if (e.is_object() && e.contains("config") && e["config"].is_string()) {
+            RunConfig c = parseConfig(e["config"].get<std::string>());
+            if (e.contains("label")) c.label = e["label"].get<std::string>();
+            out.push_back(c);
+        } else {
+            throw std::invalid_argument(path + ": each configuration is a string or {\"config\": ..., \"label\": ...}");
+        }
+    }
+    return out;
+}
+
+std::vector<RunConfig> gatherConfigs(const std::vector<std::string>& specs, const std::string& file) {
+    std::vector<RunConfig> out;
+    for (const auto& s : specs) out.push_back(parseConfig(s));
+    if (!file.empty())
+        for (auto& c : readConfigFile(file)) out.push_back(c);
+    if (out.empty()) throw std::invalid_argument("no configuration given (--config \"pt\" or --configs FILE.json)");
+    std::set<std::string> labels, slugs;
+    for (const auto& c : out) {
+        if (!labels.insert(c.label).second) throw std::invalid_argument("two configurations have the label '" + c.label + "'");
+        if (!slugs.insert(slug(c.label)).second)
+            throw std::invalid_argument("two configurations have the same file name '" + slug(c.label) + "'; use --label");
+        if (!integratorAvailable(c.integrator))
+            throw std::invalid_argument(fmt::format("configuration '{}': integrator '{}' is not available (available: {})",
+                                                    c.spec, c.integrator, supportedIntegrators()));
+        SceneDesc dummy;
+        makeSettings(dummy, c, 0, 0);  // throws for options this build cannot take
+    }
+    return out;
+}
+
+RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threads, uint64_t seed) {
+    RenderSettings s;
+    s.integrator = c.integrator;
+    s.threads = threads;
+    s.seed = seed;
+    s.quiet = true;
+    s.maxDepth = desc.integrator.maxDepth;
+    s.rrDepth = desc.integrator.rrDepth;
+    s.hideEmitters = desc.integrator.hideEmitters;
+    if (desc.integrator.radius > 0) setRadius(s, desc.integrator.radius);
+    setAlpha(s, desc.integrator.radiusAlpha);
+    if (c.ptStrategy) s.ptStrategy = *c.ptStrategy;
+    if (c.maxDepth) s.maxDepth = *c.maxDepth;
+    if (c.rrDepth) s.rrDepth = *c.rrDepth;
+    if (c.hideEmitters) s.hideEmitters = *c.hideEmitters;
+    if (c.radius && !setRadius(s, *c.radius))
+        throw std::invalid_argument("configuration '" + c.spec + "': this build's RenderSettings has no radius");
+    if (c.radiusAlpha && !setAlpha(s, *c.radiusAlpha))
+        throw std::invalid_argument("configuration '" + c.spec + "': this build's RenderSettings has no radius alpha");
+    for (const auto& [k, v] : c.extra)
+        if (!setOption(s, k, v))
+            throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
+                                                    "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --label)",
+                                                    c.spec, k));
+    return s;
+}
+
+std::vector<std::string> availableIntegrators() {
+    std::vector<std::string> out;
+    std::string cur;
+    for (char ch : supportedIntegrators() + " ") {
+        if (std::isalnum((unsigned char)ch) || ch == '_' || ch == '-') {
+            cur += ch;
+        } else if (!cur.empty()) {
+            out.push_back(cur);
+            cur.clear();
+        }
+    }
+    return out;
+}
+
+bool integratorAvailable(const std::string& name) {
+    auto v = availableIntegrators();
+    return std::find(v.begin(), v.end(), name) != v.end();
+}
+
+std::string slug(const std::string& label) {
+    std::string s;
+    for (char ch : label) {
+        if (std::isalnum((unsigned char)ch) || ch == '-' || ch == '.') s += ch;
+        else if (!s.empty() && s.back() != '_') s += '_';
+    }
+    while (!s.empty() && (s.back() == '_' || s.back() == '.')) s.pop_back();
+    while (!s.empty() && (s.front() == '-' || s.front() == '.' || s.front() == '_')) s.erase(s.begin());
+    return s.empty() ? "config" : s;
+}
+
+std::map<std::string, std::string> parseDefines(const std::vector<std::string>& defs) {
+    std::map<std::string, std::string> m;
+    for (const auto& d : defs) {
+        auto eq = d.find('=');
+        if (eq == std::string::npos || eq == 0) throw std::invalid_argument("-D expects name=value, got '" + d + "'");
+        m[d.substr(0, eq)] = d.substr(eq + 1);
+    }
+    return m;
+}
+
+CropRect parseCropRect(const std::string& s) {
+    std::vector<int> v;
+    std::stringstream ss(s);
+    std::string tok;
+    while (std::getline(ss, tok, ',')) v.push_back(toInt("--crop", tok));
+    if (v.size() != 4 || v[2] <= 0 || v[3] <= 0 || v[0] < 0 || v[1] < 0)
+        throw std::invalid_argument("--crop expects x,y,w,h with x,y >= 0 and w,h > 0, got '" + s + "'");
+    return CropRect{v[0], v[1], v[2], v[3]};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Statistics
+
+LineFit fitLogLog(const std::vector<double>& x, const std::vector<double>& y) {
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int n = 0;
+    for (size_t i = 0; i < std::min(x.size(), y.size()); ++i) {
+        if (!(x[i] > 0) || !(y[i] > 0) || !std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
+        double lx = std::log10(x[i]), ly = std::log10(y[i]);
+        sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly;
+        ++n;
+    }
+    LineFit f;
+    double den = n * sxx - sx * sx;
+    if (n < 2 || !(std::abs(den) > 1e-300)) return f;
+    f.points = n;
+    f.slope = (n * sxy - sx * sy) / den;
+    f.intercept = (sy - f.slope * sx) / n;
+    return f;
+}
+
+void ErrorAccumulator::add(const Image& img, const Image& ref) {
+    if (img.width != width || img.height != height || ref.width != width || ref.height != height)
+        throw std::invalid_argument(fmt::format("image size {}x{} differs from the reference's {}x{}", img.width,
+                                                img.height, ref.width, ref.height));
+    for (size_t p = 0; p < img.pixels.size(); ++p)
+        for (int c = 0; c < 3; ++c) {
+            double d = double(img.pixels[p][c]) - double(ref.pixels[p][c]);
+            sum[3 * p + c] += d;
+            sumSq[3 * p + c] += d * d;
+        }
+    ++runs;
+}
+
+void ErrorAccumulator::merge(const ErrorAccumulator& o) {
+    if (o.width != width || o.height != height) throw std::invalid_argument("ErrorAccumulator::merge: sizes differ");
+    for (size_t i = 0; i < sum.size(); ++i) sum[i] += o.sum[i], sumSq[i] += o.sumSq[i];
+    runs += o.runs;
+}
+
+PixelStats pixelStats(const ErrorAccumulator& acc, const Image& ref) {
+    if (acc.runs < 2) throw std::invalid_argument("bias/variance needs at least 2 runs");
+    const double K = double(acc.runs);
+    const int w = acc.width, h = acc.height;
+    PixelStats s{Image(w, h), Image(w, h), Image(w, h), Image(w, h)};
+    for (size_t p = 0; p < ref.pixels.size(); ++p)
+        for (int c = 0; c < 3; ++c) {
+            double md = acc.sum[3 * p + c] / K, q = acc.sumSq[3 * p + c];
+            double var = std::max(0.0, (q - K * md * md) / (K - 1));
+            s.mean.pixels[p][c] = float(ref.pixels[p][c] + md);
+            s.variance.pixels[p][c] = float(var);
+            s.bias2.pixels[p][c] = float(md * md - var / K);
+            s.mse.pixels[p][c] = float(q / K);
+        }
+    return s;
+}
+
+ImageFigures imageFigures(const PixelStats& s, const Image* ref) {
+    ImageFigures f;
+    const size_t n = s.mean.pixels.size();
+    f.pixels = n;
+    auto meanSe = [n, ref](const Image& img, double& mean, double& se) {
+        double sum = 0, sq = 0;
+        for (size_t p = 0; p < n; ++p) {
+            const Color& c = img.pixels[p];
+            double v = 0;
+            for (int k = 0; k < 3; ++k) {
+                double w = ref ? 1.0 / (double(ref->pixels[p][k]) * ref->pixels[p][k] + kRelMseEpsilon) : 1.0;
+                v += w * c[k];
+            }
+            sum += v;
+            sq += v * v;
+        }
+        double m = sum / double(n);
+        double var = n > 1 ? std::max(0.0, (sq - double(n) * m * m) / double(n - 1)) : 0.0;
+        mean = m / 3.0;
+        se = std::sqrt(var / double(n)) / 3.0;
+    };
+    meanSe(s.bias2, f.bias2, f.bias2StdErr);
+    meanSe(s.variance, f.variance, f.varianceStdErr);
+    meanSe(s.mse, f.mse, f.mseStdErr);
+    return f;
+}
+
+// ---------------------------------------------------------------------------------------------
+// CSV
+
+std::string csvField(const std::string& s) {
+    if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+    std::string r = "\"";
+    for (char c : s) r += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return r + "\"";
+}
+
+std::vector<std::string> splitCsvLine(const std::string& line) {
+    std::vector<std::string> out;
+    std::string cur;
+    bool quoted = false;
+    for (size_t i = 0; i < line.size(); ++i) {
+        char c = line[i];
+        if (quoted) {
+            if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') cur += '"', ++i;
+            else if (c == '"') quoted = false;
+            else cur += c;
+        } else if (c == '"') {
+            quoted = true;
+        } else if (c == ',') {
+            out.push_back(cur);
+            cur.clear();
+        } else if (c != '\r') {
+            cur += c;
+        }
+    }
+    out.push_back(cur);
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Images
+
+Image weightedAverage(const std::vector<Image>& imgs, const std::vector<double>& weights) {
+    if (imgs.empty() || imgs.size() != weights.size()) throw std::invalid_argument("weightedAverage: bad arguments");
+    double wsum = 0;
+    for (size_t i = 0; i < imgs.size(); ++i) {
+        if (imgs[i].width != imgs[0].width || imgs[i].height != imgs[0].height)
+            throw std::invalid_argument(fmt::format("image {} is {}x{}, the first is {}x{}", i + 1, imgs[i].width,
+                                                    imgs[i].height, imgs[0].width, imgs[0].height));
+        if (!(weights[i] >= 0)) throw std::invalid_argument("negative weight");
+        wsum += weights[i];
+    }
+    if (!(wsum > 0)) throw std::invalid_argument("the weights sum to zero");
+    Image out(imgs[0].width, imgs[0].height);
+    for (size_t p = 0; p < out.pixels.size(); ++p)
+        for (int c = 0; c < 3; ++c) {
+            double s = 0;
+            for (size_t i = 0; i < imgs.size(); ++i) s += weights[i] * double(imgs[i].pixels[p][c]);
+            out.pixels[p][c] = float(s / wsum);
+        }
+    return out;
+}
+
+Image falseColour(const Image& map, double vmax, double decades) {
+    Image out(map.width, map.height);
+    double lmax = std::log10(vmax > 0 ? vmax : 1.0);
+    auto toLinear = [](double s) { return s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4); };
+    for (size_t p = 0; p < map.pixels.size(); ++p) {
+        const Color& c = map.pixels[p];
+        double v = (double(c.x) + c.y + c.z) / 3.0;
+        double t = (std::isfinite(v) && v > 0) ? (std::log10(v) - lmax + decades) / decades : 0.0;
+        t = std::clamp(t, 0.0, 1.0);
+        // Viridis, polynomial fit (sRGB display values).
+        const double c0[3] = {0.2777273272234177, 0.005407344544966578, 0.3340998053353061};
+        const double c1[3] = {0.1050930431085774, 1.404613529898575, 1.384590162594685};
+        const double c2[3] = {-0.3308618287255563, 0.214847559468213, 0.09509516302823659};
+        const double c3[3] = {-4.634230498983486, -5.799100973351585, -19.33244095627987};
+        const double c4[3] = {6.228269936347081, 14.17993336680509, 56.69055260068105};
+        const double c5[3] = {4.776384997670288, -13.74514537774601, -65.35303263337234};
+        const double c6[3] = {-5.435455855934631, 4.645852612178535, 26.3124352495832};
+        for (int k = 0; k < 3; ++k) {
+            double s = c0[k] + t * (c1[k] + t * (c2[k] + t * (c3[k] + t * (c4[k] + t * (c5[k] + t * c6[k])))));
+            out.pixels[p][k] = float(toLinear(std::clamp(s, 0.0, 1.0)));
+        }
+    }
+    return out;
+}
+
+double quantile(const Image& img, double q) {
+    std::vector<float> v;
+    v.reserve(img.pixels.size() * 3);
+    for (const auto& c : img.pixels)
+        for (int k = 0; k < 3; ++k)
+            if (std::isfinite(c[k])) v.push_back(c[k]);
+    if (v.empty()) return 0.0;
+    size_t i = std::min(v.size() - 1, size_t(std::clamp(q, 0.0, 1.0) * double(v.size() - 1)));
+    std::nth_element(v.begin(), v.begin() + long(i), v.end());
+    return v[i];
+}
+
+float autoExposure(const Image& img) {
+    double p = quantile(img, 0.99);
+    if (!(p > 0)) return 0.f;
+    return float(std::clamp(std::log2(0.9 / p), -20.0, 20.0));
+}
+
+Image cropZoom(const Image& img, const CropRect& r, int scale) {
+    if (r.x < 0 || r.y < 0 || r.x + r.w > img.width || r.y + r.h > img.height || r.w <= 0 || r.h <= 0)
+        throw std::invalid_argument(fmt::format("crop {},{},{},{} is not inside the {}x{} image", r.x, r.y, r.w, r.h,
+                                                img.width, img.height));
+    scale = std::max(1, scale);
+    Image out(r.w * scale, r.h * scale);
+    for (int y = 0; y < out.height; ++y)
+        for (int x = 0; x < out.width; ++x) out.at(x, y) = img.at(r.x + x / scale, r.y + y / scale);
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Misc
+
+std::string base64(const std::string& in) {
+    static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    out.reserve((in.size() + 2) / 3 * 4);
+    size_t i = 0;
+    for (; i + 2 < in.size(); i += 3) {
+        uint32_t v = uint32_t((unsigned char)in[i]) << 16 | uint32_t((unsigned char)in[i + 1]) << 8 | (unsigned char)in[i + 2];
+        out += t[v >> 18], out += t[(v >> 12) & 63], out += t[(v >> 6) & 63], out += t[v & 63];
+    }
+    if (i + 1 == in.size()) {
+        uint32_t v = uint32_t((unsigned char)in[i]) << 16;
+        out += t[v >> 18], out += t[(v >> 12) & 63], out += "==";
+    } else if (i + 2 == in.size()) {
+        uint32_t v = uint32_t((unsigned char)in[i]) << 16 | uint32_t((unsigned char)in[i + 1]) << 8;
+        out += t[v >> 18], out += t[(v >> 12) & 63], out += t[(v >> 6) & 63], out += '=';
+    }
+    return out;
+}
+
+std::string readFile(const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) throw std::runtime_error(path + ": cannot open");
+    std::ostringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+void writeTextFile(const std::string& path, const std::string& text) {
+    fs::path p(path);
+    if (p.has_parent_path()) fs::create_directories(p.parent_path());
+    std::ofstream f(path, std::ios::binary);
+    f << text;
+    if (!f) throw std::runtime_error(path + ": cannot write");
+}
+
+std::string commandLine(int argc, char** argv) {
+    std::string s;
+    for (int i = 0; i < argc; ++i) {
+        std::string a = argv[i];
+        bool plain = !a.empty() && a.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789"
+                                                       "-_./=,:+@%") == std::string::npos;
+        if (!plain) {
+            std::string q = "'";
+            for (char c : a) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+            a = q + "'";
+        }
+        s += (i ? " " : "") + a;
+    }
+    return s;
+}
+
+std::string nowUtc() {
+    std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+nlohmann::json metricsJson(const ErrorMetrics& m) {
+    return {{"mse", m.mse}, {"relmse", m.relMse}, {"rmsre", m.rmsRelErr}, {"mape", m.mape},
+            {"mean_image", m.meanImage}, {"mean_reference", m.meanReference}};
+}
+
+}  // namespace lt::analysis

@@ -1,0 +1,190 @@
+// bench: renders the hard-case suite (scenes/hard/*.xml) and scenes/cornell-box*.xml with every
+// available integrator at equal time and writes BENCHMARKS.md: per scene and integrator the render
+// time, spp, samples/s, relMSE, RMS-RE and MAPE against a reference, and the machine (nproc, CPU
+// model, memory). References are rendered once by the `reference` tool (next to this binary) and
+// cached under out/bench/refs/ (re-rendered when the scene or the settings change).
+// Run from the repository root (or give --root). See docs/tools.md.
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+#include <unistd.h>
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+#include "core/loader.h"
+#include "core/scene.h"
+#include "tools/analysis.h"
+
+using namespace lt;
+using namespace lt::analysis;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string firstMatch(const std::string& file, const std::string& key) {
+    std::ifstream f(file);
+    std::string line;
+    while (std::getline(f, line))
+        if (line.rfind(key, 0) == 0) {
+            auto c = line.find_first_of(":=");
+            std::string v = c == std::string::npos ? line : line.substr(c + 1);
+            v.erase(0, v.find_first_not_of(" \t\""));
+            while (!v.empty() && (v.back() == '"' || std::isspace((unsigned char)v.back()))) v.pop_back();
+            return v;
+        }
+    return "unknown";
+}
+
+std::string machine(int threads) {
+    std::string mem = firstMatch("/proc/meminfo", "MemTotal");
+    double gib = 0;
+    try {
+        gib = std::stod(mem) / (1024.0 * 1024.0);
+    } catch (...) {
+    }
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return fmt::format("| | |\n|---|---|\n| CPU | {} |\n| nproc | {} (threads used: {}) |\n| memory | {:.1f} GiB |\n"
+                       "| OS | {} |\n| compiler | {} |\n",
+                       firstMatch("/proc/cpuinfo", "model name"), n, threads > 0 ? std::to_string(threads) : "all", gib,
+                       firstMatch("/etc/os-release", "PRETTY_NAME"),
+#ifdef __VERSION__
+                       std::string("g++/clang ") + __VERSION__
+#else
+                       "unknown"
+#endif
+    );
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"bench: every available integrator at equal time on the hard-case suite and the Cornell boxes"};
+    std::string root = ".", outDir = "out/bench", md = "BENCHMARKS.md", refConfig = "auto", integratorList;
+    std::vector<std::string> scenes;
+    int res = 64, threads = 0;
+    double seconds = 3, refTime = 20;
+    app.add_option("--root", root, "Repository root (default: current folder)");
+    app.add_option("--scenes", scenes, "Scenes (default: scenes/hard/*.xml and scenes/cornell-box*.xml)");
+    app.add_option("--integrators", integratorList, "Comma-separated integrators (default: all available)");
+    app.add_option("--time", seconds, "Render time per scene and integrator in seconds (default 3)")->check(CLI::PositiveNumber);
+    app.add_option("--res", res, "Image width and height, through -D res=N (default 64)")->check(CLI::Range(8, 4096));
+    app.add_option("--ref-time", refTime, "Render time of each reference in seconds (default 20)")->check(CLI::PositiveNumber);
+    app.add_option("--ref-config", refConfig, "Configuration of the references (default auto: vcm, else bpt, else pt)");
+    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_option("--out-dir", outDir, "Images and cached references (default out/bench)");
+    app.add_option("-o,--output", md, "Markdown report (default BENCHMARKS.md)");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e) == 0 ? 0 : 1;
+    }
+    auto start = std::chrono::steady_clock::now();
+    if (scenes.empty()) {
+        for (const char* dir : {"scenes/hard", "scenes"}) {
+            std::vector<std::string> found;
+            for (const auto& e : fs::directory_iterator(fs::path(root) / dir)) {
+                std::string n = e.path().filename().string();
+                if (e.path().extension() != ".xml") continue;
+                if (std::string(dir) == "scenes" && n.rfind("cornell-box", 0) != 0) continue;
+                found.push_back(e.path().lexically_normal().string());
+            }
+            std::sort(found.begin(), found.end());
+            scenes.insert(scenes.end(), found.begin(), found.end());
+        }
+    }
+    std::vector<std::string> integrators = availableIntegrators();
+    if (!integratorList.empty()) {
+        integrators.clear();
+        std::stringstream ss(integratorList);
+        for (std::string t; std::getline(ss, t, ',');)
+            if (!t.empty()) integrators.push_back(t);
+    }
+    if (refConfig == "auto") {
+        refConfig = integratorAvailable("vcm") ? "vcm" : integratorAvailable("bpt") ? "bpt" : "pt";
+    }
+    std::string refTool = (fs::path(executableDir()) / "reference").string();
+    const std::map<std::string, std::string> defines = {{"res", std::to_string(res)}};
+
+    std::string body;
+    int failures = 0;
+    for (const std::string& scenePath : scenes) {
+        std::string stem = fs::path(scenePath).stem().string();
+        fmt::print("bench: {}\n", scenePath);
+        fs::path ref = fs::path(outDir) / "refs" / (stem + ".exr");
+        int rc = runProgram({refTool, scenePath, "-o", ref.string(), "-D", "res=" + std::to_string(res), "-c", refConfig,
+                             "--time", fmt::format("{}", refTime), "--chunks", "2", "--threads", std::to_string(threads)});
+        body += fmt::format("\n## {}\n\n", scenePath);
+        {
+            std::ifstream f(scenePath);
+            std::string line;
+            std::getline(f, line);
+            if (line.rfind("<!--", 0) == 0) body += "_" + line.substr(4) + " ..._\n\n";
+        }
+        Image refImg;
+        nlohmann::json refJson;
+        try {
+            if (rc != 0) throw std::runtime_error(fmt::format("reference tool exited with {}", rc));
+            refImg = readImage(ref.string());
+            refJson = nlohmann::json::parse(readFile(fs::path(ref).replace_extension(".json").string()));
+        } catch (const std::exception& e) {
+            body += fmt::format("Reference failed: {}\n", e.what());
+            ++failures;
+            continue;
+        }
+        body += fmt::format("Reference: `{}`, {} spp in {:.0f} s ({}x{}, scene SHA-256 `{}`).\n\n",
+                            refJson.value("config", refConfig), refJson.value("spp", 0), refJson.value("seconds", 0.0), res,
+                            res, refJson.value("scene_sha256", std::string("?")).substr(0, 16));
+        body += "| integrator | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE |\n|---|---:|---:|---:|---:|---:|---:|\n";
+        SceneDesc desc;
+        try {
+            desc = loadScene(scenePath, defines);
+        } catch (const std::exception& e) {
+            body += fmt::format("Scene failed to load: {}\n", e.what());
+            ++failures;
+            continue;
+        }
+        Scene scene(desc);
+        for (const std::string& integ : integrators) {
+            try {
+                RunConfig cfg = parseConfig(integ);
+                RenderSettings s = makeSettings(desc, cfg, threads, 1);
+                s.spp = 0;
+                s.timeLimit = seconds;
+                RenderStats st;
+                Image img = renderImage(scene, s, st);
+                ErrorMetrics m = computeMetrics(img, refImg);
+                fs::path o = fs::path(outDir) / stem / (slug(integ) + ".exr");
+                fs::create_directories(o.parent_path());
+                writeExr(img, o.string());
+                writePng(img, fs::path(o).replace_extension(".png").string());
+                double sps = st.seconds > 0 ? double(st.samples) / st.seconds : 0.0;
+                body += fmt::format("| {} | {:.2f} | {} | {:.3g} | {:.4g} | {:.4g} | {:.4g} |\n", integ, st.seconds, st.spp, sps,
+                                    m.relMse, m.rmsRelErr, m.mape);
+                fmt::print("  {}: {} spp in {:.2f} s, relMSE {:.4g}\n", integ, st.spp, st.seconds, m.relMse);
+            } catch (const std::exception& e) {
+                body += fmt::format("| {} | failed: {} | | | | | |\n", integ, e.what());
+                ++failures;
+            }
+        }
+    }
+    double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::string head = "# Benchmarks\n\nWritten by `bench` (tools/bench.cpp; `bash scripts/bench.sh`). Every integrator renders "
+                       "each scene for the same wall-clock time (excluding scene loading), all at " +
+                       fmt::format("{}x{} pixels, seed 1; errors are against the reference named under each scene. ", res, res) +
+                       "relMSE = mean (a-b)^2/(b^2+0.01), RMS-RE = the RMS of relative residuals of Jendersie & Grosch "
+                       "2019, MAPE = mean |a-b|/(|b|+0.01) (core/metrics.h). A reference rendered by an integrator that "
+                       "cannot sample some paths of a scene (see the comment at the top of each scene; e.g. PT and point "
+                       "lights behind glass) misses them, and so do the figures against it.\n\n";
+    head += fmt::format("Date: {}. Command: `{}`. Total time {:.0f} s.\n\n## Machine\n\n{}", nowUtc(), commandLine(argc, argv),
+                        total, machine(threads));
+    try {
+        writeTextFile(md, head + body);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "bench: error: {}\n", e.what());
+        return 3;
+    }
+    fmt::print("bench: wrote {} in {:.0f} s ({} failures)\n", md, total, failures);
+    return failures ? 4 : 0;
+}

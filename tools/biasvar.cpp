@@ -1,0 +1,244 @@
+// biasvar: bias and variance of configurations from K independent renders (seeds base..base+K-1).
+// Each run renders to the largest requested spp; the film is developed at every requested spp
+// on the way (so the levels of one run are nested, the K runs of one level independent).
+// Per level: per-pixel mean, variance (of one render) and bias^2 against the reference as EXR
+// maps and false-colour PNGs, the image-wide figures with standard errors, a z-test of
+// bias^2 = 0 and the check MSE = bias^2 + variance; over the levels, one gnuplot plot of
+// bias^2, variance and the bias^2 noise floor against spp. See docs/tools.md.
+//
+// bias^2 estimator: E[(mean - ref)^2] = bias^2 + var/K, so bias2_hat = (mean - ref)^2 - var_hat/K is
+// unbiased (var_hat the unbiased sample variance of one render); it is negative about half the
+// time for an unbiased method. Its standard error over pixels gives the noise floor.
+// Exit codes: 0 success, 1 bad command line, 2 bad scene or reference, 3 output not written,
+// 4 rendering failed.
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+#include <algorithm>
+#include <filesystem>
+#include "core/loader.h"
+#include "core/scene.h"
+#include "tools/analysis.h"
+
+using namespace lt;
+using namespace lt::analysis;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Level {
+    uint64_t spp;
+    ErrorAccumulator even, odd;  // runs with even / odd index (split-half check)
+    double seconds = 0;          // summed over runs
+};
+
+void writeMaps(const PixelStats& ps, const fs::path& dir) {
+    fs::create_directories(dir);
+    writeExr(ps.mean, (dir / "mean.exr").string());
+    writeExr(ps.variance, (dir / "variance.exr").string());
+    writeExr(ps.bias2, (dir / "bias2.exr").string());
+    writeExr(ps.mse, (dir / "mse.exr").string());
+    writePng(ps.mean, (dir / "mean.png").string(), autoExposure(ps.mean));
+    double vmax = std::max({quantile(ps.variance, 0.99), quantile(ps.bias2, 0.99), 1e-30});
+    writePng(falseColour(ps.variance, vmax), (dir / "variance.png").string());
+    writePng(falseColour(ps.bias2, vmax), (dir / "bias2.png").string());
+    writePng(falseColour(ps.mse, vmax), (dir / "mse.png").string());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"biasvar: per-pixel mean, variance and bias^2 of configurations from K independent renders"};
+    std::string scenePath, refPath, outDir, configFile;
+    std::vector<std::string> specs, defineList;
+    std::vector<int> sppList;
+    int runs = 16, threads = 0;
+    uint64_t seed = 1000;
+    double zCrit = 3.29;
+    bool absolutePlot = false;
+    app.add_option("scene", scenePath, "Scene file (Mitsuba 3 XML)")->required();
+    app.add_option("-r,--reference", refPath, "Reference image (.exr/.pfm/.hdr) of the same size")->required();
+    app.add_option("-c,--config", specs, "Configuration, e.g. \"pt\" or \"vcm --radius 0.01\" (repeatable)")->allow_extra_args(false);
+    app.add_option("--configs", configFile, "JSON file with configurations");
+    app.add_option("-k,--runs", runs, "Independent renders K per configuration (>= 4; default 16)")->check(CLI::Range(4, 100000));
+    app.add_option("--spp", sppList, "Samples per pixel; repeat it (--spp 4 --spp 16) or give a list (--spp 4,16,64) "
+                                     "for curves against spp (default 16)")
+        ->allow_extra_args(false)
+        ->delimiter(',')
+        ->check(CLI::PositiveNumber);
+    app.add_option("--seed", seed, "Seed of the first run; run k uses seed + k (default 1000)");
+    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_option("-D", defineList, "Override a <default> of the scene: -D name=value")->take_all()->allow_extra_args(false);
+    app.add_option("-o,--output-dir", outDir, "Output folder (default out/biasvar/<scene name>)");
+    app.add_option("--z", zCrit, "Two-sided critical |z| for the tests (default 3.29: significance 0.001)")
+        ->check(CLI::PositiveNumber);
+    app.add_flag("--absolute", absolutePlot, "Plot the absolute figures (default: relative, divided by ref^2 + 0.01)");
+    app.footer("Outputs: <dir>/<config>/spp<N>/{mean,variance,bias2,mse}.exr and .png (false colour, log scale), "
+               "<dir>/biasvar.json, <dir>/biasvar.png/.svg (+ .gp, .dat).\n"
+               "Exit codes: 0 success, 1 bad command line, 2 bad scene or reference, 3 output not written, 4 render failed.");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e) == 0 ? 0 : 1;
+    }
+    const bool relativePlot = !absolutePlot;
+    if (sppList.empty()) sppList = {16};
+    std::sort(sppList.begin(), sppList.end());
+    sppList.erase(std::unique(sppList.begin(), sppList.end()), sppList.end());
+
+    std::vector<RunConfig> configs;
+    std::map<std::string, std::string> defines;
+    try {
+        defines = parseDefines(defineList);
+        configs = gatherConfigs(specs, configFile);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "biasvar: error: {}\n", e.what());
+        return 1;
+    }
+    if (outDir.empty()) outDir = (fs::path("out/biasvar") / fs::path(scenePath).stem()).string();
+
+    SceneDesc desc;
+    Image ref;
+    try {
+        desc = loadScene(scenePath, defines);
+        ref = readImage(refPath);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "biasvar: error: {}\n", e.what());
+        return 2;
+    }
+    if (ref.width != desc.camera.width || ref.height != desc.camera.height) {
+        fmt::print(stderr, "biasvar: error: the reference is {}x{} but the scene renders {}x{} (use -D res=...)\n",
+                   ref.width, ref.height, desc.camera.width, desc.camera.height);
+        return 2;
+    }
+
+    nlohmann::json summary;
+    summary["tool"] = "biasvar";
+    summary["command"] = commandLine(argc, argv);
+    summary["date"] = nowUtc();
+    summary["scene"] = fs::absolute(scenePath).string();
+    summary["defines"] = defines;
+    summary["reference"] = fs::absolute(refPath).string();
+    summary["runs"] = runs;
+    summary["first_seed"] = seed;
+    summary["z_critical"] = zCrit;
+    summary["bias2_estimator"] = "(mean - ref)^2 - var/K, var the unbiased sample variance of one render";
+    summary["configs"] = nlohmann::json::array();
+    std::vector<Panel> panels;
+    bool allOk = true;
+    try {
+        Scene scene(desc);
+        for (size_t ci = 0; ci < configs.size(); ++ci) {
+            const RunConfig& cfg = configs[ci];
+            std::vector<Level> levels;
+            for (int n : sppList) levels.push_back(Level{uint64_t(n), {ref.width, ref.height}, {ref.width, ref.height}});
+            fmt::print(stderr, "biasvar: {}: {} runs to {} spp ...\n", cfg.label, runs, sppList.back());
+            for (int k = 0; k < runs; ++k) {
+                RenderSettings s = makeSettings(desc, cfg, threads, seed + uint64_t(k));
+                s.spp = sppList.back();
+                size_t next = 0;
+                auto cb = [&](const Progress& p) {
+                    if (next >= levels.size() || p.passesDone != levels[next].spp) return;
+                    Image img = p.film->develop(p.passesDone);
+                    if (auto bad = findNonFinite(img))
+                        throw std::runtime_error(fmt::format("non-finite pixel ({}, {})", bad->first, bad->second));
+                    (k % 2 ? levels[next].odd : levels[next].even).add(img, ref);
+                    levels[next].seconds += p.seconds;
+                    ++next;
+                };
+                RenderStats stats;
+                renderImage(scene, s, stats, cb);
+            }
+            nlohmann::json jc;
+            jc["label"] = cfg.label;
+            jc["spec"] = cfg.spec;
+            jc["slug"] = slug(cfg.label);
+            jc["levels"] = nlohmann::json::array();
+            Curve cb2, cvar, cfloor, cmse;
+            fmt::print("{} ({} runs):\n", cfg.label, runs);
+            for (Level& L : levels) {
+                ErrorAccumulator all = L.even;
+                all.merge(L.odd);
+                PixelStats ps = pixelStats(all, ref), pe = pixelStats(L.even, ref), po = pixelStats(L.odd, ref);
+                fs::path dir = fs::path(outDir) / slug(cfg.label) / fmt::format("spp{}", L.spp);
+                writeMaps(ps, dir);
+                nlohmann::json jl = {{"spp", L.spp}, {"seconds_per_run", L.seconds / runs}, {"dir", fs::relative(dir, outDir).string()}};
+                fmt::print("  spp {}:\n", L.spp);
+                for (bool relative : {false, true}) {
+                    const Image* w = relative ? &ref : nullptr;
+                    ImageFigures f = imageFigures(ps, w), fe = imageFigures(pe, w), fo = imageFigures(po, w);
+                    double z = f.bias2StdErr > 0 ? f.bias2 / f.bias2StdErr : (f.bias2 > 0 ? INFINITY : 0.0);
+                    // The exact identity of the estimators (a numerical check) ...
+                    double identity = std::abs(f.mse - (f.bias2 + f.variance)) / std::max(f.mse, 1e-300);
+                    // ... and the statistical check: MSE from the even runs against bias^2 + variance
+                    // from the odd runs (independent estimates of the same expectation).
+                    double splitSe = std::hypot(fe.mseStdErr, fo.mseStdErr);
+                    double splitZ = splitSe > 0 ? (fe.mse - (fo.bias2 + fo.variance)) / splitSe : 0.0;
+                    bool ok = identity < 1e-4 && std::abs(splitZ) < zCrit;
+                    allOk = allOk && ok;
+                    jl[relative ? "relative" : "absolute"] = {
+                        {"bias2", f.bias2}, {"bias2_stderr", f.bias2StdErr}, {"bias2_z", z}, {"biased", z > zCrit},
+                        {"variance", f.variance}, {"variance_stderr", f.varianceStdErr}, {"mse", f.mse},
+                        {"mse_stderr", f.mseStdErr}, {"identity_rel_diff", identity}, {"split_half_mse", fe.mse},
+                        {"split_half_bias2_plus_variance", fo.bias2 + fo.variance}, {"split_half_z", splitZ}, {"check_ok", ok}};
+                    const char* name = relative ? "relative (/ (ref^2 + 0.01))" : "absolute";
+                    fmt::print("    {:28} bias^2 {:.4e} +- {:.2e} (z = {:+.2f}: {}), variance {:.4e} +- {:.2e}, MSE {:.4e} +- {:.2e}\n",
+                               name, f.bias2, f.bias2StdErr, z, z > zCrit ? "biased" : "consistent with 0", f.variance,
+                               f.varianceStdErr, f.mse, f.mseStdErr);
+                    fmt::print("    {:28} check MSE = bias^2 + variance: identity rel. diff {:.1e}; split halves {:.4e} vs "
+                               "{:.4e}, z = {:+.2f} -> {}\n",
+                               "", identity, fe.mse, fo.bias2 + fo.variance, splitZ, ok ? "OK" : "FAILED");
+                    if (relative != relativePlot) continue;
+                    double x = double(L.spp);
+                    cb2.x.push_back(x), cb2.y.push_back(f.bias2);
+                    cvar.x.push_back(x), cvar.y.push_back(f.variance);
+                    cfloor.x.push_back(x), cfloor.y.push_back(2 * f.bias2StdErr);
+                    cmse.x.push_back(x), cmse.y.push_back(f.mse);
+                }
+                jc["levels"].push_back(jl);
+            }
+            LineFit fb = fitLogLog(cb2.x, cb2.y), fv = fitLogLog(cvar.x, cvar.y);
+            auto sl = [](const LineFit& f) { return f.valid() ? fmt::format("{:.2f}", f.slope) : std::string("n/a"); };
+            std::string pre = configs.size() > 1 ? cfg.label + ": " : std::string();
+            cvar.title = pre + "variance (slope " + sl(fv) + ")";
+            cb2.title = pre + "bias^2 (slope " + sl(fb) + ")";
+            cfloor.title = pre + "bias^2 noise floor";
+            cmse.title = pre + "MSE";
+            // One colour per configuration; the quantity is told by the line and point style.
+            cvar.color = cb2.color = cfloor.color = cmse.color = int(ci);
+            cb2.pointType = 5;
+            cfloor.dashed = true;
+            cmse.dotted = true;
+            if (panels.empty()) panels.push_back(Panel{"bias^2 (squares), variance (circles), MSE (dotted), bias^2 noise "
+                                                       "floor (dashed); " + std::to_string(runs) + " runs each",
+                                                       "samples per pixel [spp]",
+                                                       relativePlot ? "relative: average of x / (ref^2 + 0.01) [dimensionless]"
+                                                                    : "average per value [radiance^2]",
+                                                       true, true, {}});
+            for (Curve* c : {&cvar, &cb2, &cfloor, &cmse}) panels[0].curves.push_back(*c);
+            summary["configs"].push_back(jc);
+        }
+    } catch (const ImageError& e) {
+        fmt::print(stderr, "biasvar: error: {}\n", e.what());
+        return 3;
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "biasvar: error: {}\n", e.what());
+        return 4;
+    }
+    try {
+        if (sppList.size() > 1) {
+            int height = 480 + 20 * int(std::min<size_t>(4, panels[0].curves.size()));
+            PlotFiles pf = plot((fs::path(outDir) / "biasvar").string(), panels, 760, height);
+            summary["plot_width"] = 760;
+            if (!pf.ok) fmt::print(stderr, "biasvar: warning: no plot: {}\n", pf.message);
+            summary["plot_png"] = pf.ok ? nlohmann::json("biasvar.png") : nlohmann::json(nullptr);
+            summary["plot_svg"] = pf.ok ? nlohmann::json("biasvar.svg") : nlohmann::json(nullptr);
+        }
+        summary["all_checks_ok"] = allOk;
+        writeTextFile((fs::path(outDir) / "biasvar.json").string(), summary.dump(2) + "\n");
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "biasvar: error: {}\n", e.what());
+        return 3;
+    }
+    fmt::print("biasvar: wrote {}/biasvar.json{}\n", outDir, sppList.size() > 1 ? " and biasvar.png/.svg" : "");
+    return 0;
+}
