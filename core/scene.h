@@ -52,7 +52,8 @@ public:
     // Lights that a ray escaping the scene sees (constant environment).
     const std::vector<const Light*>& infiniteLights() const { return envLights_; }
     Vec3 boundsCenter() const { return center_; }
-    float boundsRadius() const { return radius_; }
+    float boundsRadius() const { return radius_; }           // geometry and camera
+    float geometryRadius() const { return geometryRadius_; }  // geometry only (merge radius default)
 
     // Uniform point on the shape of an area light: position, normal.
     void sampleAreaLight(const Light& l, const Vec2& u, Vec3& p, Vec3& n) const;
@@ -75,7 +76,7 @@ private:
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
     std::vector<Distribution1D> meshTriDist_;      // area-proportional triangle choice per emitter mesh
     Vec3 center_{0.f};
-    float radius_ = 1.f;
+    float radius_ = 1.f, geometryRadius_ = 1.f;
     float offsetScale_ = 0.f;  // scene-relative part of the ray offset
     size_t triangleCount_ = 0;
 };

@@ -22,7 +22,7 @@ struct RenderSettings {
     // PT only: "mis" (NEE and emitter hits, power heuristic), "nee" (emitter hits only where NEE
     // cannot connect: seen from the camera or after a delta lobe), "bsdf" (emitter hits only).
     std::string ptStrategy = "mis";
-    // VCM / PPM: initial merge radius (<= 0: 0.003 x the scene's bounding radius, as SmallVCM)
+    // VCM / PPM: initial merge radius (<= 0: 0.003 x the geometry's bounding radius, as SmallVCM)
     // and the radius reduction exponent: r_i = r_0 i^((alpha - 1) / 2).
     float radius = -1.f;
     float radiusAlpha = 0.75f;

@@ -76,7 +76,8 @@ public:
         const size_t nPaths = size_t(cam.width()) * cam.height();
         if (pass == 0 && !settings_.strategyImages.empty())
             strategies_ = std::make_unique<StrategyImages>(cam.width(), cam.height(), maxDepth_);
-        float r0 = settings_.radius > 0.f ? settings_.radius : 0.003f * scene.boundsRadius();
+        // Default as SmallVCM: 0.003 x the radius of the geometry's bounding sphere.
+        float r0 = settings_.radius > 0.f ? settings_.radius : 0.003f * scene.geometryRadius();
         radius_ = r0 * std::pow(float(pass + 1), 0.5f * (settings_.radiusAlpha - 1.f));
         cfg_.mergeArea = kPi * radius_ * radius_;
         cfg_.lightPaths = float(nPaths);

@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
     app.add_option("-D", defines, "Override a <default> of the scene: -D name=value")->take_all();
     std::string ptStrategy = "mis", strategyImages;
     float radius = -1.f, radiusAlpha = -1.f;
-    app.add_option("--radius", radius, "VCM/PPM initial merge radius (default: the scene's, else 0.003 x scene radius)")
+    app.add_option("--radius", radius, "VCM/PPM initial merge radius (default: the scene's, else 0.003 x the geometry's bounding radius)")
         ->check(CLI::PositiveNumber);
     app.add_option("--radius-alpha", radiusAlpha, "VCM/PPM radius reduction: r_i = r_0 i^((alpha-1)/2), alpha in (0,1]")
         ->check(CLI::Range(1e-6, 1.0));
