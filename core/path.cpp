@@ -1,4 +1,5 @@
 #include "core/path.h"
+#include "core/light_paths.h"
 
 namespace lt {
 
@@ -187,6 +188,7 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
             sum += q * q;
         }
     }
+    if (pdfs.belowBase >= 0.0) return sum + pdfs.belowBase;
     r = 1.0;
     for (int k = base - 1; k >= std::min(kMin, base); --k) {
         r *= remap(pdfs.fromCamera[k]) / remap(pdfs.fromLight[k]);
@@ -200,6 +202,21 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
 }
 
 }  // namespace
+
+double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev) {
+    auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
+    // Technique k = m (light vertices y[0..m-1], camera side from y[m]) and the merge at y[m].
+    double own = 0.0;
+    if (m == 0) own = lightHittable ? 1.0 : 0.0;
+    else if (!y[m - 1].delta && !y[m].delta) own = 1.0;
+    if (cfg.merging && m >= 1 && !y[m].delta) {
+        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remap(y[m].fwd);
+        own += q * q;
+    }
+    if (m == 0) return own;
+    double ratio = remap(y[m - 1].rev) / remap(y[m - 1].fwd);
+    return own + ratio * ratio * prev;
+}
 
 float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
     double sum = misSum(pdfs, s, cfg);
@@ -354,22 +371,48 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
     return true;
 }
 
-bool merge(const PathVertex* y, int i, const PathVertex* z, int t, Connection& c) {
-    const PathVertex& yv = y[i];
+bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
+           const MisConfig& cfg) {
+    const int i = ph.depth;
     const PathVertex& zv = z[t - 1];
-    if (i < 1 || t < 2 || !zv.connectible() || !yv.connectible() || zv.infinite) return false;
-    if (glm::dot(yv.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
-    BsdfEval ez = zv.bsdf().eval(zv.wo, yv.wo, TransportMode::Radiance);
+    if (i < 1 || t < 2 || !zv.connectible() || zv.infinite) return false;
+    if (glm::dot(ph.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
+    BsdfEval ez = zv.bsdf().eval(zv.wo, ph.wo, TransportMode::Radiance);
     if (isBlack(ez.f)) return false;
-    c.contribution = zv.beta * ez.f * yv.beta;
+    c.contribution = zv.beta * ez.f * ph.beta;
     // Full path: x_0..x_i from the light subpath (x_i at the camera vertex), then z[t-2]..z[0].
     PathPdfs& P = c.pdfs;
-    gatherLightPdfs(y, i + 1, P);
+    P.belowBase = -1.0;
+    if (lightPdfs) {
+        for (int k = 0; k <= i; ++k) {
+            P.fromLight[k] = lightPdfs[k].fwd;
+            P.fromCamera[k] = lightPdfs[k].rev;
+            P.delta[k] = lightPdfs[k].delta;
+        }
+    } else {
+        P.fromLight[i - 1] = ph.prevPdfFwd;
+        P.delta[i - 1] = ph.prevDelta != 0;
+    }
+    P.lightHittable = ph.lightHittable != 0;
     gatherCameraPdfs(z, t, i, P);
-    P.fromLight[i] = yv.pdfFwd.value;
+    P.fromLight[i] = ph.pdfFwd;
     P.delta[i] = false;
-    P.fromCamera[i - 1] = convertDensity(ez.pdfFwd, zv, y[i - 1]).value;
+    // Camera walk continuing from the merge vertex to y[i-1].
+    if (ph.prevInfinite) {
+        P.fromCamera[i - 1] = ez.pdfFwd.value;
+    } else {
+        Vec3 d = ph.prevP - zv.p;
+        float d2 = glm::dot(d, d);
+        float cosPrev = ph.prevNg != Vec3(0.f) ? std::abs(glm::dot(ph.prevNg, d)) / std::sqrt(d2) : 1.f;
+        P.fromCamera[i - 1] = d2 > 0.f ? ez.pdfFwd.value * cosPrev / d2 : 0.f;
+    }
     P.fromLight[i + 1] = convertDensity(ez.pdfRev, zv, z[t - 2]).value;
+    if (!lightPdfs) {
+        auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
+        double ratio = remap(P.fromCamera[i - 1]) / remap(P.fromLight[i - 1]);
+        P.belowBase = ratio * ratio * ph.misLight;
+    }
+    (void)cfg;
     return true;
 }
 

@@ -105,6 +105,10 @@ struct PathPdfs {
     std::array<float, kMaxPathVertices> fromLight{}, fromCamera{};  // pL[i], pC[i] (area measure)
     std::array<bool, kMaxPathVertices> delta{};
     bool lightHittable = false;  // can a camera walk reach x_0 (technique s = 0)?
+    // Fast form for merges: when >= 0, the sum over the techniques with fewer light vertices than
+    // the base technique, precomputed per light vertex (lightPrefixSum) and scaled at the merge;
+    // entries below base - 1 are then not read. Checked against the gathered form in tests.
+    double belowBase = -1.0;
 };
 
 // Power-heuristic weight of connection technique s: p_s^2 / sum_k (n_k p_k)^2 over the techniques
@@ -136,10 +140,21 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
 // fills the pdfs.
 Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs);
 
-// Merge (vertex merging) of light vertex y[i] (i >= 1) with camera vertex z[t-1] (t >= 2):
-// the unweighted contribution f_z(z.wo, y.wo) * beta_y * beta_z (the caller divides by
-// N pi r^2) and the pdfs of the merged path for misWeightMerge(pdfs, i).
-bool merge(const PathVertex* y, int i, const PathVertex* z, int t, Connection& c);
+// Merge (vertex merging) of light vertex y[i] (i >= 1; `photon` holds what is needed of y[i] and
+// y[i-1], `lightPdfs` the densities of y[0..i]) with camera vertex z[t-1] (t >= 2): the
+// unweighted contribution f_z(z.wo, y.wo) * beta_y * beta_z (the caller divides by N pi r^2)
+// and the pdfs of the merged path for misWeightMerge(pdfs, i).
+// With lightPdfs == nullptr the fast form is used: only the camera side and the merge vertex's
+// neighbours are gathered, and the light side comes from photon.misLight (lightPrefixSum).
+struct Photon;
+struct VertexPdfs;
+bool merge(const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
+           const MisConfig& cfg);
+
+// For light vertex y[m] of a light subpath (pdfs of y[0..m]): the sum over techniques k <= m of
+// (p_k / p_VC(m+1))^2 / (pC[m] / pL[m])^2, i.e. what a merge at y[m+1] needs of the light side
+// (SmallVCM's partial quantities in sum form). Recursive in m.
+double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev);
 
 // Gathers the pdfs of the camera subpath z[0..t-1] into pdfs (x indices s..s+t-1), n = s + t.
 void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs);

@@ -117,13 +117,7 @@ public:
         stats.rays += rays.load();
 
         // (2) Photon grid: light vertices after at least one segment that a merge can use.
-        if (useMerging_) {
-            items_.clear();
-            const auto& v = store_.vertices();
-            for (uint32_t k = 0; k < v.size(); ++k)
-                if (v[k].depth >= 1 && v[k].kind == VertexKind::Surface && v[k].connectible()) items_.push_back(k);
-            grid_.build(v, items_, radius_);
-        }
+        if (useMerging_) grid_.build(store_, radius_, cfg_);
     }
 
     void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
@@ -200,13 +194,11 @@ private:
                         record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel);
             }
             if (useMerging_) {
-                const auto& verts = store_.vertices();
                 Connection c;
-                grid_.query(v.p, [&](uint32_t idx, const PathVertex& pv) {
-                    int i = pv.depth;
+                grid_.query(v.p, [&](const Photon& ph) {
+                    int i = ph.depth;
                     if (i + t - 1 > maxDepth_) return;
-                    const PathVertex* yp = verts.data() + (idx - uint32_t(i));
-                    if (!merge(yp, i, z, t, c)) return;
+                    if (!merge(ph, nullptr, z, t, c, cfg_)) return;  // fast form (tested against the gathered)
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
                     record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel);
                 });
@@ -237,7 +229,6 @@ private:
     LightPathStore store_;
     std::vector<LightPathStore::Chunk> chunks_;
     std::vector<SplatBuffer> splats_;
-    std::vector<uint32_t> items_;
     HashGrid grid_;
     std::unique_ptr<StrategyImages> strategies_;
 };

@@ -317,3 +317,45 @@ TEST_CASE("bidirectional images are bit-identical for 1 and 2 threads", "[bpt][d
         CHECK(std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(Color)) == 0);
     }
 }
+
+TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the gathered form", "[vcm][mis]") {
+    SceneDesc d = cornellBox(8, ggx());
+    Scene scene(d);
+    WalkStats ws;
+    MisConfig cfg{TechniqueSet::Bidirectional, true, kPi * 0.05f * 0.05f, 256.f};
+    LightPathStore store;
+    LightPathStore::Chunk chunk;
+    std::array<PathVertex, kMaxPathVertices> y, z;
+    for (uint64_t j = 0; j < 256; ++j) {
+        Rng rng(j, 77);
+        int ny = lightWalk(scene, rng, 6, 100, y.data(), ws);
+        chunk.counts.push_back(uint32_t(ny));
+        chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
+    }
+    store.append(chunk);
+    HashGrid grid;
+    grid.build(store, 0.05f, cfg);
+    REQUIRE(grid.size() > 100);
+    int merges = 0;
+    for (uint64_t i = 0; i < 2000; ++i) {
+        Rng rng(i, 78);
+        int nz = cameraWalk(scene, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, 100, z.data(), ws);
+        for (int t = 2; t <= nz; ++t) {
+            if (!z[t - 1].connectible() || z[t - 1].infinite) continue;
+            grid.query(z[t - 1].p, [&](const Photon& ph) {
+                Connection gathered, fast;
+                const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
+                bool a = merge(ph, pdfs, z.data(), t, gathered, cfg);
+                bool b = merge(ph, nullptr, z.data(), t, fast, cfg);
+                REQUIRE(a == b);
+                if (!a) return;
+                float wg = misWeightMerge(gathered.pdfs, ph.depth, cfg), wf = misWeightMerge(fast.pdfs, ph.depth, cfg);
+                INFO("photon depth " << int(ph.depth) << " t " << t);
+                CHECK(wf == Approx(wg).epsilon(1e-4).margin(1e-7));
+                CHECK(fast.contribution == gathered.contribution);
+                ++merges;
+            });
+        }
+    }
+    CHECK(merges > 500);
+}
