@@ -2,6 +2,7 @@
 // scene in tests/data/bad gives a clear error (file, line, the expected words), exit code != 0,
 // writes no output and does not crash; bad command lines exit with 1.
 #include <catch2/catch.hpp>
+#include "process.h"
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -11,33 +12,14 @@
 #include "core/image.h"
 
 namespace fs = std::filesystem;
+using lt::test::Run;
+using lt::test::sh;
 
 namespace {
 
-struct Run {
-    int code = -1;
-    std::string output;
-};
+Run run(const std::string& args) { return sh(std::string(LT_RENDER_BIN) + " " + args); }
 
-Run run(const std::string& args) {
-    std::string cmd = std::string(LT_RENDER_BIN) + " " + args + " 2>&1";
-    Run r;
-    FILE* p = popen(cmd.c_str(), "r");
-    REQUIRE(p);
-    std::array<char, 4096> buf;
-    size_t n;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
-    int status = pclose(p);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return r;
-}
-
-fs::path tempDir(const std::string& name) {
-    fs::path d = fs::temp_directory_path() / ("lt_cli_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-}
+fs::path tempDir(const std::string& name) { return lt::test::tempDir("lt_cli", name); }
 
 }  // namespace
 

@@ -4,6 +4,7 @@
 // renders it black, PT's image is exactly black, and an integrator said to sample the paths
 // (when this build has it) renders them non-black.
 #include <catch2/catch.hpp>
+#include "process.h"
 #include <sys/wait.h>
 #include <unistd.h>
 #include <array>
@@ -16,34 +17,14 @@
 #include "tools/analysis.h"
 
 namespace fs = std::filesystem;
+using lt::test::Run;
+using lt::test::sh;
 
 namespace {
 
-struct Run {
-    int code = -1;
-    std::string output;
-};
-
-Run sh(const std::string& cmd) {
-    Run r;
-    FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-    REQUIRE(p);
-    std::array<char, 4096> buf;
-    size_t n;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
-    int status = pclose(p);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return r;
-}
-
 fs::path hardDir() { return fs::path(LT_SOURCE_DIR) / "scenes/hard"; }
 
-fs::path tempDir(const std::string& name) {
-    fs::path d = fs::temp_directory_path() / ("lt_hard_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-}
+fs::path tempDir(const std::string& name) { return lt::test::tempDir("lt_hard", name); }
 
 // Renders with `render` and returns the image (REQUIREs success).
 lt::Image render(const fs::path& scene, const std::string& args, const fs::path& out) {

@@ -1,5 +1,6 @@
 // Image I/O: round trips through every format and error reporting on bad files.
 #include <catch2/catch.hpp>
+#include "process.h"
 
 #include <OpenEXR/ImfCRgbaFile.h>
 #include <stb/stb_image.h>
@@ -25,19 +26,8 @@ using Catch::Matchers::Contains;
 
 namespace {
 
-struct TempDir {
-    fs::path dir;
-    TempDir() {
-        static std::atomic<int> counter{0};
-        dir = fs::temp_directory_path() /
-              ("lt_test_image_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::create_directories(dir);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(dir, ec);
-    }
-    std::string file(const std::string& name) const { return (dir / name).string(); }
+struct TempDir : lt::test::TempDir {
+    TempDir() : lt::test::TempDir("lt_test_image") {}
 };
 
 // 5x3 (non-square, so a transposition or a vertical flip is detected), every value different,

@@ -1,5 +1,6 @@
 // Error metrics (core/metrics.h) against hand-computed values, and the imgcompare tool.
 #include <catch2/catch.hpp>
+#include "process.h"
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -23,19 +24,8 @@ using Catch::Matchers::Contains;
 
 namespace {
 
-struct TempDir {
-    fs::path dir;
-    TempDir() {
-        static std::atomic<int> counter{0};
-        dir = fs::temp_directory_path() /
-              ("lt_test_metrics_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::create_directories(dir);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(dir, ec);
-    }
-    std::string file(const std::string& name) const { return (dir / name).string(); }
+struct TempDir : lt::test::TempDir {
+    TempDir() : lt::test::TempDir("lt_test_metrics") {}
 };
 
 // 2x2 grey images (all three channels equal, so per-value averages equal per-pixel ones):
@@ -64,24 +54,8 @@ Image imageB() {
 constexpr double kMeanA = 1.5, kMeanB = 0.75, kMse = 1.25, kRelMse = 5.0 / 4.04, kMape = 3.0 / 4.04;
 const double kRmsRe = std::sqrt(13.0) / 6.0;
 
-struct RunResult {
-    int exitCode;
-    std::string output;
-};
-
 // Runs the imgcompare binary with the given arguments; stdout and stderr are captured together.
-RunResult runImgcompare(const std::string& args) {
-    std::string cmd = std::string("'") + LT_IMGCOMPARE_BIN + "' " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    REQUIRE(p != nullptr);
-    std::string out;
-    char buf[4096];
-    size_t n;
-    while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-    int status = pclose(p);
-    REQUIRE(WIFEXITED(status));
-    return {WEXITSTATUS(status), out};
-}
+lt::test::Run runImgcompare(const std::string& args) { return lt::test::sh(std::string("'") + LT_IMGCOMPARE_BIN + "' " + args); }
 
 // Parses "name: value" lines.
 std::map<std::string, double> parseLines(const std::string& out) {
@@ -277,9 +251,9 @@ TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[
     writeExr(imageB(), b);
 
     SECTION("all metrics") {
-        RunResult r = runImgcompare(q(a) + " " + q(b));
+        lt::test::Run r = runImgcompare(q(a) + " " + q(b));
         INFO(r.output);
-        REQUIRE(r.exitCode == 0);
+        REQUIRE(r.code == 0);
         auto v = parseLines(r.output);
         // The tool prints shortest round-trip decimals, so parsing gives the double back exactly.
         CHECK(v.at("pixels") == 4);
@@ -293,34 +267,34 @@ TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[
         CHECK(v.at("mape_eps") == 0.01);
     }
     SECTION("single metric") {
-        RunResult r = runImgcompare(q(a) + " " + q(b) + " --metric mse");
+        lt::test::Run r = runImgcompare(q(a) + " " + q(b) + " --metric mse");
         INFO(r.output);
-        REQUIRE(r.exitCode == 0);
+        REQUIRE(r.code == 0);
         CHECK(r.output == "mse: 1.25\n");
         r = runImgcompare(q(a) + " " + q(b) + " --metric RMSRE");
-        REQUIRE(r.exitCode == 0);
+        REQUIRE(r.code == 0);
         auto v = parseLines(r.output);
         CHECK(v.size() == 1);
         CHECK(v.at("rmsre") == Approx(kRmsRe).epsilon(1e-14));
         // Swapping A and B changes relMSE (normalised by the reference B): (1/4.01 + 4/9.01)/4.
         r = runImgcompare(q(b) + " " + q(a) + " --metric relmse");
-        REQUIRE(r.exitCode == 0);
+        REQUIRE(r.code == 0);
         CHECK(parseLines(r.output).at("relmse") == Approx((1.0 / 4.01 + 4.0 / 9.01) / 4.0).epsilon(1e-14));
     }
     SECTION("crop") {
         // Only pixel (1,0): a = 2, b = 1.
-        RunResult r = runImgcompare(q(a) + " " + q(b) + " --crop 1,0,1,1");
+        lt::test::Run r = runImgcompare(q(a) + " " + q(b) + " --crop 1,0,1,1");
         INFO(r.output);
-        REQUIRE(r.exitCode == 0);
+        REQUIRE(r.code == 0);
         auto v = parseLines(r.output);
         CHECK(v.at("pixels") == 1);
         CHECK(v.at("mse") == 1.0);
         CHECK(v.at("rmsre") == Approx(std::sqrt(1.0 / 2.25)).epsilon(1e-14));
     }
     SECTION("json") {
-        RunResult r = runImgcompare(q(a) + " " + q(b) + " --json");
+        lt::test::Run r = runImgcompare(q(a) + " " + q(b) + " --json");
         INFO(r.output);
-        REQUIRE(r.exitCode == 0);
+        REQUIRE(r.code == 0);
         CHECK_THAT(r.output, Contains("\"mse\": 1.25") && Contains("\"pixels\": 4") &&
                                  Contains("\"relmse_eps\": 0.01") && Contains("\"rmsre\": "));
         CHECK(r.output.front() == '{');
@@ -328,31 +302,31 @@ TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[
     }
     SECTION("error map") {
         const std::string map = tmp.file("map.exr");
-        RunResult r = runImgcompare(q(a) + " " + q(b) + " --error-map " + q(map));
+        lt::test::Run r = runImgcompare(q(a) + " " + q(b) + " --error-map " + q(map));
         INFO(r.output);
-        REQUIRE(r.exitCode == 0);
+        REQUIRE(r.code == 0);
         Image got = readImage(map), want = errorMap(imageA(), imageB(), Metric::RelMse);  // default: relmse
         REQUIRE(got.width == 2);
         REQUIRE(got.height == 2);
         CHECK(got.pixels == want.pixels);
         const std::string mseMap = tmp.file("mse.pfm");
         r = runImgcompare(q(a) + " " + q(b) + " --metric mse --error-map " + q(mseMap));
-        REQUIRE(r.exitCode == 0);
+        REQUIRE(r.code == 0);
         CHECK(readImage(mseMap).at(0, 1) == Color(4.f));
     }
     SECTION("image errors exit with 2 and name the file") {
         const std::string missing = tmp.file("missing.exr");
-        RunResult r = runImgcompare(q(a) + " " + q(missing));
-        CHECK(r.exitCode == 2);
+        lt::test::Run r = runImgcompare(q(a) + " " + q(missing));
+        CHECK(r.code == 2);
         CHECK_THAT(r.output, Contains(missing));
         r = runImgcompare(q(missing) + " " + q(b));
-        CHECK(r.exitCode == 2);
+        CHECK(r.code == 2);
         CHECK_THAT(r.output, Contains(missing));
 
         const std::string big = tmp.file("big.exr");
         writeExr(Image(3, 2), big);
         r = runImgcompare(q(a) + " " + q(big));
-        CHECK(r.exitCode == 2);
+        CHECK(r.code == 2);
         CHECK_THAT(r.output, Contains(a) && Contains(big) && Contains("2x2") && Contains("3x2"));
 
         const std::string nan = tmp.file("nan.pfm");
@@ -360,24 +334,24 @@ TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[
         n.at(1, 1).x = std::numeric_limits<float>::quiet_NaN();
         writePfm(n, nan);
         r = runImgcompare(q(nan) + " " + q(b));
-        CHECK(r.exitCode == 2);
+        CHECK(r.code == 2);
         CHECK_THAT(r.output, Contains(nan) && Contains("(1, 1)"));
 
         r = runImgcompare(q(a) + " " + q(b) + " --error-map " + q(tmp.file("no/dir/map.exr")));
-        CHECK(r.exitCode == 2);
+        CHECK(r.code == 2);
     }
     SECTION("usage errors exit with 1") {
-        CHECK(runImgcompare(q(a) + " " + q(b) + " --bogus").exitCode == 1);
-        CHECK(runImgcompare(q(a) + " " + q(b) + " --metric psnr").exitCode == 1);
-        CHECK(runImgcompare(q(a)).exitCode == 1);
-        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop 1,2,3").exitCode == 1);
-        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop a,b,c,d").exitCode == 1);
-        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop 1,1,2,2").exitCode == 1);  // outside 2x2
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --bogus").code == 1);
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --metric psnr").code == 1);
+        CHECK(runImgcompare(q(a)).code == 1);
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop 1,2,3").code == 1);
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop a,b,c,d").code == 1);
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --crop 1,1,2,2").code == 1);  // outside 2x2
     }
     SECTION("help documents every flag") {
-        RunResult r = runImgcompare("--help");
+        lt::test::Run r = runImgcompare("--help");
         INFO(r.output);
-        CHECK(r.exitCode == 0);
+        CHECK(r.code == 0);
         for (const char* s : {"--metric", "--crop", "--error-map", "--json", "relmse", "rmsre", "mape", "eps = 0.01"})
             CHECK_THAT(r.output, Contains(s));
     }

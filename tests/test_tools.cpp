@@ -4,6 +4,7 @@
 // caching), report (well-formed XHTML, optional headless-chromium screenshot) and a bench smoke run.
 // Every test renders tiny images (16x16 or 32x32) with fixed seeds.
 #include <catch2/catch.hpp>
+#include "process.h"
 #include <stb/stb_image.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -20,36 +21,16 @@
 #include "tools/analysis.h"
 
 namespace fs = std::filesystem;
+using lt::test::Run;
+using lt::test::sh;
 using nlohmann::json;
 
 namespace {
 
-struct Run {
-    int code = -1;
-    std::string output;
-};
-
-Run sh(const std::string& cmd) {
-    Run r;
-    FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-    REQUIRE(p);
-    std::array<char, 4096> buf;
-    size_t n;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
-    int status = pclose(p);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return r;
-}
-
 std::string tool(const std::string& name) { return std::string(LT_TOOLS_DIR) + "/" + name; }
 std::string scene(const std::string& name) { return std::string(LT_SOURCE_DIR) + "/scenes/" + name; }
 
-fs::path tempDir(const std::string& name) {
-    fs::path d = fs::temp_directory_path() / ("lt_tools_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-}
+fs::path tempDir(const std::string& name) { return lt::test::tempDir("lt_tools", name); }
 
 json readJson(const fs::path& p) { return json::parse(lt::analysis::readFile(p.string())); }
 
