@@ -1,4 +1,5 @@
 #include "core/light_paths.h"
+#include <tbb/parallel_for.h>
 
 namespace lt {
 
@@ -8,52 +9,63 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
     photons_.clear();
     const auto& v = store.vertices();
     const auto& pdfs = store.pdfs();
-    std::vector<Photon>& items = items_;
-    items.clear();
-    double prefix = 0.0;  // lightPrefixSum of the previous vertex of the same path
-    for (uint32_t k = 0; k < v.size(); ++k) {
-        const PathVertex& y = v[k];
-        const PathVertex& y0 = v[k - y.depth];
-        const bool hittable = y0.light && y0.light->isHittable();
-        const double prevPrefix = prefix;
-        prefix = lightPrefixSum(pdfs.data() + (k - y.depth), y.depth, hittable, cfg, y.depth > 0 ? prefix : 0.0);
-        if (y.depth < 1 || y.kind != VertexKind::Surface || !y.connectible()) continue;
-        const PathVertex& prev = v[k - 1];
-        Photon ph;
-        ph.p = y.p;
-        ph.vertex = k;
-        ph.wo = y.wo;
-        ph.pdfFwd = y.pdfFwd.value;
-        ph.ng = y.ng;
-        ph.depth = y.depth;
-        ph.lightHittable = hittable;
-        ph.prevPdfFwd = prev.pdfFwd.value;
-        ph.prevDelta = prev.delta;
-        ph.misLight = prevPrefix;
-        ph.prevInfinite = prev.infinite;
-        ph.beta = y.beta;
-        ph.prevP = prev.p;
-        ph.prevNg = prev.onSurface() ? prev.ng : Vec3(0.f);
-        items.push_back(ph);
-    }
-    if (items.empty()) return;
-    lo_ = Vec3(kInf);
-    for (const Photon& ph : items) lo_ = glm::min(lo_, ph.p);
+    const size_t nv = v.size();
+    // Cell coordinates are relative to the origin (any fixed origin works; negative cells hash too).
+    lo_ = Vec3(0.f);
     invCell_ = 1.f / (2.f * radius);
-    size_t tableSize = std::max<size_t>(items.size(), 1024);
+    const size_t tableSize = std::max<size_t>(nv, 1024);
+    // (1) In parallel: one photon record (or none) per light vertex, and its cell.
+    items_.resize(nv);
+    cellOf_.resize(nv);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
+        // The light-side MIS prefix is recursive along each path: restart it at the range's path.
+        size_t k0 = r.begin() - v[r.begin()].depth;
+        double prefix = 0.0;
+        for (size_t k = k0; k < r.end(); ++k) {
+            const PathVertex& y = v[k];
+            const PathVertex& y0 = v[k - y.depth];
+            const bool hittable = y0.light && y0.light->isHittable();
+            const double prevPrefix = prefix;
+            prefix = lightPrefixSum(pdfs.data() + (k - y.depth), y.depth, hittable, cfg, y.depth > 0 ? prefix : 0.0);
+            if (k < r.begin()) continue;
+            if (y.depth < 1 || y.kind != VertexKind::Surface || !y.connectible()) {
+                cellOf_[k] = UINT32_MAX;
+                continue;
+            }
+            const PathVertex& prev = v[k - 1];
+            Photon& ph = items_[k];
+            ph.p = y.p;
+            ph.vertex = uint32_t(k);
+            ph.wo = y.wo;
+            ph.pdfFwd = y.pdfFwd.value;
+            ph.ng = y.ng;
+            ph.depth = y.depth;
+            ph.lightHittable = hittable;
+            ph.prevPdfFwd = prev.pdfFwd.value;
+            ph.prevDelta = prev.delta;
+            ph.misLight = prevPrefix;
+            ph.prevInfinite = prev.infinite;
+            ph.beta = y.beta;
+            ph.prevP = prev.p;
+            ph.prevNg = prev.onSurface() ? prev.ng : Vec3(0.f);
+            Vec3 g = (y.p - lo_) * invCell_;
+            cellOf_[k] = cellHashMod(glm::ivec3(std::floor(g.x), std::floor(g.y), std::floor(g.z)), tableSize);
+        }
+    });
+    // (2) Counting sort by cell, sequential and in vertex order: deterministic.
     cellStarts_.assign(tableSize + 1, 0u);
-    std::vector<uint32_t>& cellOf = cellOf_;
-    cellOf.resize(items.size());
-    for (size_t k = 0; k < items.size(); ++k) {
-        Vec3 g = (items[k].p - lo_) * invCell_;
-        cellOf[k] = cellHash(glm::ivec3(std::floor(g.x), std::floor(g.y), std::floor(g.z)));
-        ++cellStarts_[cellOf[k] + 1];
+    size_t count = 0;
+    for (size_t k = 0; k < nv; ++k)
+        if (cellOf_[k] != UINT32_MAX) ++cellStarts_[cellOf_[k] + 1], ++count;
+    if (count == 0) {
+        cellStarts_.clear();
+        return;
     }
     for (size_t c = 1; c < cellStarts_.size(); ++c) cellStarts_[c] += cellStarts_[c - 1];
-    photons_.resize(items.size());
-    std::vector<uint32_t>& fill = fill_;
-    fill.assign(cellStarts_.begin(), cellStarts_.end() - 1);
-    for (size_t k = 0; k < items.size(); ++k) photons_[fill[cellOf[k]]++] = items[k];
+    photons_.resize(count);
+    fill_.assign(cellStarts_.begin(), cellStarts_.end() - 1);
+    for (size_t k = 0; k < nv; ++k)
+        if (cellOf_[k] != UINT32_MAX) photons_[fill_[cellOf_[k]]++] = items_[k];
 }
 
 }  // namespace lt

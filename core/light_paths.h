@@ -98,10 +98,11 @@ public:
     size_t size() const { return photons_.size(); }
 
 private:
-    uint32_t cellHash(const glm::ivec3& c) const {
+    static uint32_t cellHashMod(const glm::ivec3& c, size_t tableSize) {
         uint32_t x = uint32_t(c.x) * 73856093u, y = uint32_t(c.y) * 19349663u, z = uint32_t(c.z) * 83492791u;
-        return (x ^ y ^ z) % uint32_t(cellStarts_.size() - 1);
+        return (x ^ y ^ z) % uint32_t(tableSize);
     }
+    uint32_t cellHash(const glm::ivec3& c) const { return cellHashMod(c, cellStarts_.size() - 1); }
     std::vector<uint32_t> cellStarts_;
     std::vector<Photon> photons_;
     std::vector<Photon> items_;                   // scratch, kept across iterations
