@@ -3,6 +3,7 @@
 # and VCM on the Cornell box and its mirror-sphere, glass-sphere and point-in-glass variants;
 # (B) relMSE against a VCM reference after equal time for each integrator (bench tool).
 # Usage: bash scripts/bench-integrators.sh [equal-time seconds (10)] [reference seconds (60)]
+#        (equal-time seconds 0: part A only)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 T=${1:-10}
@@ -25,6 +26,7 @@ for s in "${scenes[@]}"; do
   row="$row $(python3 -c "print('%.2f'%(${t[vcm]}/${t[bpt]}))") |"
   echo "$row"
 done
+[ "$T" = 0 ] && exit 0
 args=()
 for s in "${scenes[@]}"; do args+=(--scenes "$s"); done
 bash scripts/bench.sh "${args[@]}" --integrators pt,bpt,lt,vcm --time "$T" --res 128 --ref-time "$REF" \
