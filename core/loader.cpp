@@ -591,6 +591,16 @@ private:
 
 }  // namespace
 
+std::map<std::string, std::string> parseDefines(const std::vector<std::string>& defs) {
+    std::map<std::string, std::string> m;
+    for (const auto& d : defs) {
+        auto eq = d.find('=');
+        if (eq == std::string::npos || eq == 0) throw std::invalid_argument("-D expects name=value, got '" + d + "'");
+        m[d.substr(0, eq)] = d.substr(eq + 1);
+    }
+    return m;
+}
+
 SceneDesc loadScene(const std::string& path, const std::map<std::string, std::string>& defines) {
     try {
         xml::Document doc = xml::parseDocument(path, defines);

@@ -3,6 +3,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <vector>
 #include "core/scene_desc.h"
 
 namespace lt {
@@ -14,5 +15,9 @@ struct SceneError : std::runtime_error {
 
 // defines: `-D name=value` from the command line; they override <default> values in the file.
 SceneDesc loadScene(const std::string& path, const std::map<std::string, std::string>& defines = {});
+
+// The command line's "-D name=value" list as a map for loadScene. Throws std::invalid_argument
+// ("-D expects name=value, got '...'").
+std::map<std::string, std::string> parseDefines(const std::vector<std::string>& defs);
 
 }  // namespace lt

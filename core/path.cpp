@@ -101,18 +101,22 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
     return n;
 }
 
+PathVertex cameraEndpoint(const Scene& scene) {
+    PathVertex c;
+    c.kind = VertexKind::Camera;
+    c.p = scene.camera().position();
+    c.shading = Frame(scene.camera().forward());
+    c.beta = Color(1.f);      // We cos / (pdfPos pdfDir) = 1 for a pinhole sampled by raster position
+    c.pdfFwd = AreaPdf(1.f);  // the pinhole position is a delta
+    c.roughness = 0.f;
+    return c;
+}
+
 int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth, PathVertex* path,
                WalkStats& stats) {
     const Camera& cam = scene.camera();
     Ray ray = cam.generateRay(raster);
-    PathVertex& c = path[0];
-    c = PathVertex{};
-    c.kind = VertexKind::Camera;
-    c.p = ray.o;
-    c.shading = Frame(cam.forward());
-    c.beta = Color(1.f);        // We cos / (pdfPos pdfDir) = 1 for a pinhole sampled by raster position
-    c.pdfFwd = AreaPdf(1.f);    // the pinhole position is a delta
-    c.roughness = 0.f;
+    path[0] = cameraEndpoint(scene);
     if (maxVertices <= 1) return 1;
     return randomWalk(scene, ray, Color(1.f), cam.directionPdf(ray.d), rng, TransportMode::Radiance, maxVertices,
                       rrDepth, path, stats);
@@ -371,8 +375,7 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
     return true;
 }
 
-bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
-           const MisConfig& cfg) {
+bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c) {
     const int i = ph.depth;
     const PathVertex& zv = z[t - 1];
     if (i < 1 || t < 2 || !zv.connectible() || zv.infinite) return false;
@@ -412,7 +415,6 @@ bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, i
         double ratio = remap(P.fromCamera[i - 1]) / remap(P.fromLight[i - 1]);
         P.belowBase = ratio * ratio * ph.misLight;
     }
-    (void)cfg;
     return true;
 }
 

@@ -71,6 +71,9 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
 // vertices (0 when no light can emit). path[0] is the light endpoint.
 int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats);
 
+// The pinhole camera as a path endpoint (z_0 of camera subpaths, the t = 1 end of light tracing).
+PathVertex cameraEndpoint(const Scene& scene);
+
 // Starts a camera subpath through raster position `raster`.
 int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
                PathVertex* path, WalkStats& stats);
@@ -148,8 +151,7 @@ Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs)
 // neighbours are gathered, and the light side comes from photon.misLight (lightPrefixSum).
 struct Photon;
 struct VertexPdfs;
-bool merge(const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
-           const MisConfig& cfg);
+bool merge(const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c);
 
 // For light vertex y[m] of a light subpath (pdfs of y[0..m]): the sum over techniques k <= m of
 // (p_k / p_VC(m+1))^2 / (pC[m] / pL[m])^2, i.e. what a merge at y[m+1] needs of the light side

@@ -57,6 +57,9 @@ public:
 };
 
 std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& settings);
+// The renderer's name for a Mitsuba integrator type (path -> pt, bdpt -> bpt, ptracer -> lt,
+// sppm -> ppm); other names are returned unchanged.
+std::string integratorForSceneType(const std::string& mitsubaType);
 // Names accepted by makeIntegrator.
 std::string supportedIntegrators();
 

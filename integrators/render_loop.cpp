@@ -13,6 +13,14 @@ std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s);
 
 std::string supportedIntegrators() { return "pt, bpt, vcm, lt, ppm"; }
 
+std::string integratorForSceneType(const std::string& t) {
+    if (t == "path") return "pt";
+    if (t == "bdpt") return "bpt";
+    if (t == "ptracer") return "lt";
+    if (t == "sppm") return "ppm";
+    return t;
+}
+
 std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
     if (s.integrator == "pt") return makePathTracer(s);
     if (s.integrator == "bpt" || s.integrator == "vcm" || s.integrator == "lt" || s.integrator == "ppm")

@@ -97,7 +97,7 @@ public:
             splat.clear();
             WalkStats ws;
             std::array<PathVertex, kMaxPathVertices> y;
-            PathVertex camera = cameraVertex(scene);
+            PathVertex camera = cameraEndpoint(scene);
             for (size_t j = c * kChunk; j < std::min(nPaths, (c + 1) * kChunk); ++j) {
                 Rng rng = Rng::forSample(settings_.seed, j, pass, /*domain=*/1);
                 int ny = lightWalk(scene, rng, maxLight, settings_.rrDepth, y.data(), ws);
@@ -139,17 +139,6 @@ public:
     }
 
 private:
-    static PathVertex cameraVertex(const Scene& scene) {
-        PathVertex c;
-        c.kind = VertexKind::Camera;
-        c.p = scene.camera().position();
-        c.shading = Frame(scene.camera().forward());
-        c.beta = Color(1.f);
-        c.pdfFwd = AreaPdf(1.f);
-        c.roughness = 0.f;
-        return c;
-    }
-
     // t = 1: every light vertex connected to the camera and splatted.
     void lightTrace(const Scene& scene, Film& film, const PathVertex* y, int ny, const PathVertex& camera,
                     SplatBuffer& splat, WalkStats& ws) const {
@@ -198,7 +187,7 @@ private:
                 grid_.query(v.p, [&](const Photon& ph) {
                     int i = ph.depth;
                     if (i + t - 1 > maxDepth_) return;
-                    if (!merge(ph, nullptr, z, t, c, cfg_)) return;  // fast form (tested against the gathered)
+                    if (!merge(ph, nullptr, z, t, c)) return;  // fast form (tested against the gathered)
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
                     record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel);
                 });

@@ -210,10 +210,7 @@ TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation; weights sum to on
     Scene scene(d);
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> y, z;
-    PathVertex cam;
-    cam.kind = VertexKind::Camera;
-    cam.p = scene.camera().position();
-    cam.pdfFwd = AreaPdf(1.f);
+    PathVertex cam = cameraEndpoint(scene);
     int checkedPaths = 0, grazingPaths = 0;
     for (bool merging : {false, true}) {
         MisConfig cfg{TechniqueSet::Bidirectional, merging, kPi * 0.01f * 0.01f, 64.f};
@@ -345,8 +342,8 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
             grid.query(z[t - 1].p, [&](const Photon& ph) {
                 Connection gathered, fast;
                 const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
-                bool a = merge(ph, pdfs, z.data(), t, gathered, cfg);
-                bool b = merge(ph, nullptr, z.data(), t, fast, cfg);
+                bool a = merge(ph, pdfs, z.data(), t, gathered);
+                bool b = merge(ph, nullptr, z.data(), t, fast);
                 REQUIRE(a == b);
                 if (!a) return;
                 float wg = misWeightMerge(gathered.pdfs, ph.depth, cfg), wf = misWeightMerge(fast.pdfs, ph.depth, cfg);

@@ -105,14 +105,6 @@ bool setOption(S& s, const std::string& k, const std::string& v) {
 
 }  // namespace
 
-std::string rendererName(const std::string& t) {
-    if (t == "path") return "pt";
-    if (t == "bdpt") return "bpt";
-    if (t == "ptracer") return "lt";
-    if (t == "sppm") return "ppm";
-    return t;
-}
-
 RunConfig parseConfig(const std::string& spec) {
     std::vector<std::string> w = tokenize(spec);
     if (w.empty()) throw std::invalid_argument("empty configuration");
@@ -120,7 +112,7 @@ RunConfig parseConfig(const std::string& spec) {
     c.spec = spec;
     c.label = spec;
     if (w[0].starts_with("-")) throw std::invalid_argument("configuration '" + spec + "' must start with an integrator name");
-    c.integrator = rendererName(w[0]);
+    c.integrator = integratorForSceneType(w[0]);
     for (size_t i = 1; i < w.size(); ++i) {
         std::string opt = w[i];
         if (!opt.starts_with("--") || opt.size() < 3)
@@ -258,16 +250,6 @@ std::string slug(const std::string& label) {
     while (!s.empty() && (s.back() == '_' || s.back() == '.')) s.pop_back();
     while (!s.empty() && (s.front() == '-' || s.front() == '.' || s.front() == '_')) s.erase(s.begin());
     return s.empty() ? "config" : s;
-}
-
-std::map<std::string, std::string> parseDefines(const std::vector<std::string>& defs) {
-    std::map<std::string, std::string> m;
-    for (const auto& d : defs) {
-        auto eq = d.find('=');
-        if (eq == std::string::npos || eq == 0) throw std::invalid_argument("-D expects name=value, got '" + d + "'");
-        m[d.substr(0, eq)] = d.substr(eq + 1);
-    }
-    return m;
 }
 
 CropRect parseCropRect(const std::string& s) {

@@ -47,16 +47,12 @@ std::vector<RunConfig> gatherConfigs(const std::vector<std::string>& specs, cons
 
 // Settings from the scene (max depth, rr depth, hide emitters, radius) overridden by the config.
 RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& cfg, int threads, uint64_t seed);
-// The renderer's name for a Mitsuba integrator type (path -> pt, bdpt -> bpt, ptracer -> lt).
-std::string rendererName(const std::string& mitsubaType);
 // Names that makeIntegrator accepts (split from supportedIntegrators()).
 std::vector<std::string> availableIntegrators();
 bool integratorAvailable(const std::string& name);
 // File-name-safe version of a label ("pt --pt-strategy bsdf" -> "pt_pt-strategy_bsdf").
 std::string slug(const std::string& label);
 
-// "-D name=value" list -> map. Throws std::invalid_argument.
-std::map<std::string, std::string> parseDefines(const std::vector<std::string>& defs);
 // "x,y,w,h". Throws std::invalid_argument.
 CropRect parseCropRect(const std::string& s);
 

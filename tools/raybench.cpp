@@ -58,14 +58,9 @@ int main(int argc, char** argv) {
     app.add_option("--passes", passes, "Passes over the image (one ray of each kind per pixel each)");
     app.add_option("-D", defines, "name=value overrides")->take_all();
     CLI11_PARSE(app, argc, argv);
-    std::map<std::string, std::string> defs;
-    for (auto& d : defines) {
-        auto eq = d.find('=');
-        if (eq != std::string::npos) defs[d.substr(0, eq)] = d.substr(eq + 1);
-    }
     std::unique_ptr<Scene> scene;
     try {
-        scene = std::make_unique<Scene>(loadScene(scenePath, defs));
+        scene = std::make_unique<Scene>(loadScene(scenePath, parseDefines(defines)));
     } catch (const std::exception& e) {
         fmt::print(stderr, "error: {}\n", e.what());
         return 2;

@@ -66,13 +66,11 @@ int main(int argc, char** argv) {
     seedGiven = seedOpt->count() > 0;
 
     std::map<std::string, std::string> defs;
-    for (const std::string& d : defines) {
-        auto eq = d.find('=');
-        if (eq == std::string::npos || eq == 0) {
-            fmt::print(stderr, "error: -D expects name=value, got '{}'\n", d);
-            return 1;
-        }
-        defs[d.substr(0, eq)] = d.substr(eq + 1);
+    try {
+        defs = parseDefines(defines);
+    } catch (const std::invalid_argument& e) {
+        fmt::print(stderr, "error: {}\n", e.what());
+        return 1;
     }
     if (output.empty()) output = (fs::path("out") / fs::path(scenePath).stem()).string() + ".exr";
     std::string ext = fs::path(output).extension().string();
@@ -97,10 +95,7 @@ int main(int argc, char** argv) {
     if (!integrator.empty()) {
         settings.integrator = integrator;
     } else {
-        static const std::map<std::string, std::string> fromXml = {
-            {"path", "pt"}, {"bdpt", "bpt"}, {"vcm", "vcm"}, {"ptracer", "lt"}, {"ppm", "ppm"}};
-        auto it = fromXml.find(desc.integrator.type);
-        settings.integrator = it != fromXml.end() ? it->second : "pt";
+        settings.integrator = integratorForSceneType(desc.integrator.type);  // the loader only yields known types
     }
     settings.spp = spp > 0 ? spp : (timeLimit > 0 ? 0 : desc.sampleCount);
     settings.timeLimit = timeLimit;
