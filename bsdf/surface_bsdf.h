@@ -11,9 +11,12 @@ namespace lt {
 // Test hook: tests switch the adjoint correction off to show that the agreement tests detect it.
 inline bool gTestDisableAdjointCorrection = false;
 
+// A view: it refers to the frame and normal it is given (a path vertex's), without copying them.
 class SurfaceBsdf {
 public:
     SurfaceBsdf(const Bxdf* bxdf, const Frame& shading, const Vec3& ng) : bxdf_(bxdf), frame_(shading), ng_(ng) {}
+    SurfaceBsdf(const Bxdf*, Frame&&, const Vec3&) = delete;  // would dangle
+    SurfaceBsdf(const Bxdf*, const Frame&, Vec3&&) = delete;
 
     BsdfEval eval(const Vec3& woW, const Vec3& wiW, TransportMode mode, const Roughness* rough = nullptr) const {
         BsdfEval e;
@@ -46,8 +49,8 @@ private:
         return den > 0.f ? num / den : 0.f;
     }
     const Bxdf* bxdf_;
-    Frame frame_;
-    Vec3 ng_;
+    const Frame& frame_;
+    const Vec3& ng_;
 };
 
 }  // namespace lt

@@ -3,14 +3,6 @@
 
 namespace lt {
 
-Color Light::Le(const Vec3& n, const Vec3& w) const {
-    switch (type) {
-        case LightType::Area: return glm::dot(n, w) > 0.f ? value : Color(0.f);  // one-sided
-        case LightType::Constant: return value;
-        default: return Color(0.f);
-    }
-}
-
 float Light::spotFalloff(const Vec3& w) const {
     float c = glm::dot(w, direction);
     if (c <= cosCutoff) return 0.f;
@@ -26,10 +18,10 @@ LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& 
             scene.sampleAreaLight(*this, u, s.p, s.n);
             Vec3 d = s.p - refP;
             s.dist = glm::length(d);
-            if (!(s.dist > 0.f)) return LightSampleLi{};
-            s.wi = d / s.dist;
+            if (!(s.dist > 0.f)) { s = LightSampleLi{}; return s; }  // (one named return object: NRVO, no struct copy)
+            s.wi = d * (1.f / s.dist);
             s.value = Le(s.n, -s.wi);
-            s.pdfPos = AreaPdf(1.f / area);
+            s.pdfPos = AreaPdf(invArea);
             return s;
         }
         case LightType::Point:
@@ -37,7 +29,7 @@ LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& 
             s.p = position;
             Vec3 d = s.p - refP;
             s.dist = glm::length(d);
-            if (!(s.dist > 0.f)) return LightSampleLi{};
+            if (!(s.dist > 0.f)) { s = LightSampleLi{}; return s; }  // (one named return object: NRVO, no struct copy)
             s.wi = d / s.dist;
             s.value = type == LightType::Spot ? value * spotFalloff(-s.wi) : value;
             s.pdfPos = AreaPdf(1.f);
@@ -65,7 +57,7 @@ LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& 
 
 AreaPdf Light::pdfLi(const Scene&, const Vec3&, const Vec3&, const Vec3&, const Vec3&) const {
     switch (type) {
-        case LightType::Area: return AreaPdf(area > 0.f ? 1.f / area : 0.f);
+        case LightType::Area: return AreaPdf(invArea);
         case LightType::Constant: return AreaPdf(kUniformSpherePdf);
         default: return AreaPdf(0.f);  // delta lights cannot be hit
     }
@@ -73,7 +65,7 @@ AreaPdf Light::pdfLi(const Scene&, const Vec3&, const Vec3&, const Vec3&, const 
 
 AreaPdf Light::pdfLePos(const Scene& scene) const {
     switch (type) {
-        case LightType::Area: return AreaPdf(area > 0.f ? 1.f / area : 0.f);
+        case LightType::Area: return AreaPdf(invArea);
         case LightType::Point:
         case LightType::Spot: return AreaPdf(1.f);
         case LightType::Directional:
@@ -102,7 +94,7 @@ LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& 
             Vec3 local = sampleCosineHemisphere(uDir);
             s.dir = Frame(s.n).toWorld(local);
             s.value = value;
-            s.pdfPos = AreaPdf(1.f / area);
+            s.pdfPos = AreaPdf(invArea);
             s.pdfDir = SolidAnglePdf(cosineHemispherePdf(local.z));
             return s;
         }

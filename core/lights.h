@@ -40,7 +40,7 @@ public:
     int meshIndex = -1, sphereIndex = -1;
     Vec3 position{0.f}, direction{0, 0, 1};  // point/spot; spot axis; directional travel direction
     float cosCutoff = 1.f, cutoff = 0.f, beamWidth = 0.f;  // spot, radians
-    float area = 0.f;
+    float area = 0.f, invArea = 0.f;  // area lights (set by the scene)
 
     bool isDeltaPosition() const { return type == LightType::Point || type == LightType::Spot; }
     bool isDeltaDirection() const { return type == LightType::Directional; }
@@ -51,7 +51,13 @@ public:
 
     // Radiance leaving a point of an area light with normal n in direction w; for the constant
     // light, radiance arriving from direction -w (w points from the scene towards the sky).
-    Color Le(const Vec3& n, const Vec3& w) const;
+    Color Le(const Vec3& n, const Vec3& w) const {
+        switch (type) {
+            case LightType::Area: return glm::dot(n, w) > 0.f ? value : Color(0.f);  // one-sided
+            case LightType::Constant: return value;
+            default: return Color(0.f);
+        }
+    }
     // Spot intensity profile (1 inside the beam, falling linearly in angle to 0 at the cutoff).
     float spotFalloff(const Vec3& wFromLight) const;
 

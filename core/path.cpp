@@ -34,17 +34,19 @@ static void refreshPdfs(const Scene& scene, PathVertex* path, int i, TransportMo
 }
 
 int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng, TransportMode mode,
-               int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats) {
+               int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats, WalkPdfs pdfs) {
+    constexpr float kNotComputed = std::numeric_limits<float>::quiet_NaN();
+    const bool allPdfs = pdfs == WalkPdfs::All;
     int n = 1;
     SolidAnglePdf pdfFwd = pdfDir;
     while (n < maxVertices) {
         PathVertex& prev = path[n - 1];
         PathVertex& v = path[n];
-        v = PathVertex{};
         SurfaceHit hit;
         ++stats.rays;
         if (!scene.intersect(ray, hit)) {
             if (mode == TransportMode::Radiance && !scene.infiniteLights().empty()) {
+                v = PathVertex{};
                 v.infinite = true;
                 v.light = scene.infiniteLights().front();
                 v.p = ray.o + ray.d * (2.f * scene.boundsRadius());
@@ -58,6 +60,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
             }
             break;
         }
+        // Every field is written (no default construction first: this is the hot loop).
         v.kind = VertexKind::Surface;
         v.p = hit.p;
         v.ng = hit.ng;
@@ -68,12 +71,21 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         v.bxdf = hit.bxdf;
         v.light = hit.light;
         v.beta = beta;
+        v.pdfRev = AreaPdf(allPdfs ? 0.f : kNotComputed);
+        v.lobe = kNone;
+        v.delta = false;
+        v.infinite = false;
+        v.deltaBsdf = hit.deltaBsdf;
         v.depth = uint16_t(prev.depth + 1);
-        v.segmentLength = glm::length(hit.p - prev.p);
-        v.pathLength = prev.pathLength + v.segmentLength;
-        v.roughness = hit.bxdf ? hit.bxdf->roughness() : 1.f;
-        refreshPdfs(scene, path, n, mode, pdfFwd);
-        v.pdfFwd = convertDensity(pdfFwd, prev, v);
+        v.segmentLength = backLen;
+        v.pathLength = prev.pathLength + backLen;
+        v.roughness = hit.roughness;
+        if (allPdfs || v.light) {
+            refreshPdfs(scene, path, n, mode, pdfFwd);
+            v.pdfFwd = convertDensity(pdfFwd, prev, v);
+        } else {
+            v.pdfFwd = AreaPdf(kNotComputed);
+        }
         ++n;
         if (n >= maxVertices || !v.bxdf) break;
 
@@ -89,7 +101,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
             v.delta = true;
             pdfFwd = pdfRev = SolidAnglePdf(0.f);
         }
-        prev.pdfRev = convertDensity(pdfRev, v, prev);
+        if (allPdfs) prev.pdfRev = convertDensity(pdfRev, v, prev);
         beta *= bs.weight;
         if (v.depth >= rrDepth) {
             float q = std::min(0.95f, maxComp(beta));
@@ -105,7 +117,6 @@ PathVertex cameraEndpoint(const Scene& scene) {
     PathVertex c;
     c.kind = VertexKind::Camera;
     c.p = scene.camera().position();
-    c.shading = Frame(scene.camera().forward());
     c.beta = Color(1.f);      // We cos / (pdfPos pdfDir) = 1 for a pinhole sampled by raster position
     c.pdfFwd = AreaPdf(1.f);  // the pinhole position is a delta
     c.roughness = 0.f;
@@ -113,13 +124,13 @@ PathVertex cameraEndpoint(const Scene& scene) {
 }
 
 int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth, PathVertex* path,
-               WalkStats& stats) {
+               WalkStats& stats, WalkPdfs pdfs) {
     const Camera& cam = scene.camera();
     Ray ray = cam.generateRay(raster);
     path[0] = cameraEndpoint(scene);
     if (maxVertices <= 1) return 1;
     return randomWalk(scene, ray, Color(1.f), cam.directionPdf(ray.d), rng, TransportMode::Radiance, maxVertices,
-                      rrDepth, path, stats);
+                      rrDepth, path, stats, pdfs);
 }
 
 int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats) {
@@ -138,7 +149,6 @@ int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVe
     y0.infinite = l.isInfinite();
     y0.p = le.p;
     y0.ng = l.type == LightType::Area ? le.n : Vec3(0.f);
-    y0.shading = Frame(l.type == LightType::Area ? le.n : le.dir);
     y0.roughness = 1.f;
     // Density of the endpoint in the measure NEE uses: area for finite lights, the emission
     // direction's solid angle for lights at infinity (their position lives on the scene's disk).
@@ -236,9 +246,9 @@ float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
     return sum > 0.0 ? float(own * own / sum) : 0.f;
 }
 
-void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs) {
+void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit) {
     pdfs.n = s + t;
-    for (int j = 0; j < t; ++j) {
+    for (int j = std::max(0, s + t - 1 - readLimit); j < t; ++j) {
         int i = s + t - 1 - j;
         pdfs.fromCamera[i] = z[j].pdfFwd.value;
         pdfs.fromLight[i] = z[j].pdfRev.value;
@@ -263,12 +273,13 @@ static AreaPdf emissionDensity(const Scene& scene, const PathVertex& lv, const V
     return convertDensity(l.pdfLeDir(lv.ng, travelDir), lv, to);
 }
 
-Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs) {
+Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit) {
     const PathVertex& v = z[t - 1];
     if (!v.light || t < 2) return Color(0.f);
     Color Le = v.light->Le(v.ng, v.wo);
     if (isBlack(Le)) return Color(0.f);
-    gatherCameraPdfs(z, t, 0, pdfs);
+    gatherCameraPdfs(z, t, 0, pdfs, readLimit);
+    pdfs.belowBase = -1.0;
     float sel = scene.lightSelectionProb(v.light);
     pdfs.fromLight[0] = sel * v.light->pdfLi(scene, z[t - 2].p, v.p, v.ng, -v.wo).value;
     pdfs.delta[0] = false;
@@ -290,7 +301,6 @@ bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVerte
     out.kind = VertexKind::Light;
     out.p = ls.p;
     out.ng = l.type == LightType::Area ? ls.n : Vec3(0.f);
-    out.shading = Frame(l.type == LightType::Area ? ls.n : -ls.wi);
     out.light = &l;
     out.infinite = l.isInfinite();
     out.beta = Color(1.f / (sel * ls.pdfPos.value));
@@ -310,7 +320,7 @@ static Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
 }
 
 bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
-             WalkStats& stats) {
+             WalkStats& stats, int readLimit) {
     const PathVertex& a = y[s - 1];  // light side
     const PathVertex& b = z[t - 1];  // camera side
     const bool toCamera = b.kind == VertexKind::Camera;
@@ -360,8 +370,9 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
 
     // MIS pdfs: the path's own, with the four values at the connection recomputed.
     PathPdfs& P = c.pdfs;
+    P.belowBase = -1.0;
     gatherLightPdfs(y, s, P);
-    gatherCameraPdfs(z, t, s, P);
+    gatherCameraPdfs(z, t, s, P, readLimit);
     P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, b, a).value;
     if (s >= 2) P.fromCamera[s - 2] = convertDensity(ea.pdfRev, a, y[s - 2]).value;
     if (a.kind == VertexKind::Light) {

@@ -34,6 +34,7 @@ struct PathVertex {
     uint32_t lobe = kNone;  // lobe sampled at this vertex to continue the walk
     bool delta = false;     // continued through a delta lobe: no connection can use this vertex
     bool infinite = false;  // at infinity (environment hit, directional/constant light endpoint)
+    bool deltaBsdf = false; // surface whose BSDF has only delta lobes (cached from the hit)
     uint16_t depth = 0;     // number of segments from the subpath's endpoint
     // Fields regularisation reads (JG19, OPSR).
     float roughness = 1.f;      // the material's scalar roughness in [0,1]
@@ -41,7 +42,7 @@ struct PathVertex {
     float pathLength = 0.f;     // sum of segment lengths from the endpoint to here
 
     bool onSurface() const { return kind == VertexKind::Surface || (kind == VertexKind::Light && ng != Vec3(0.f)); }
-    bool connectible() const { return !delta && (kind != VertexKind::Surface || (bxdf && !bxdf->isDelta())); }
+    bool connectible() const { return !delta && (kind != VertexKind::Surface || (bxdf && !deltaBsdf)); }
     SurfaceBsdf bsdf() const { return SurfaceBsdf(bxdf, shading, ng); }
 };
 
@@ -59,13 +60,19 @@ struct WalkStats {
     uint64_t rays = 0;
 };
 
+// Which vertex densities a walk computes. All: pdfFwd and pdfRev of every vertex, re-evaluated at
+// the vertex positions (BPT, VCM, any MIS over the whole path). EmitterHits: only pdfFwd of
+// vertices on emitters (all the path tracer's MIS reads, see misReadLimit); the others are NaN,
+// so a reader that should not read them produces NaN samples, which are counted, not hidden.
+enum class WalkPdfs { All, EmitterHits };
+
 // Extends a subpath whose vertex path[0] (endpoint) is filled in, starting with `ray` whose
 // direction was sampled with solid-angle density pdfDir and throughput beta. Returns the number of
 // vertices (including path[0]); at most maxVertices. Stops at misses (adding a vertex at infinity
 // for camera walks when the scene has an environment light), absorption (Russian roulette after
 // rrDepth segments) or failed BSDF sampling.
 int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng, TransportMode mode,
-               int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats);
+               int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All);
 
 // Starts a light subpath: picks a light by power, samples an emitted ray. Returns the number of
 // vertices (0 when no light can emit). path[0] is the light endpoint.
@@ -76,7 +83,7 @@ PathVertex cameraEndpoint(const Scene& scene);
 
 // Starts a camera subpath through raster position `raster`.
 int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
-               PathVertex* path, WalkStats& stats);
+               PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All);
 
 // ---- MIS ----------------------------------------------------------------------------------
 // Which connection techniques (s, t) an integrator uses.
@@ -103,10 +110,13 @@ struct MisConfig {
 
 // The pdfs of one full path, gathered from both subpaths (with the values at the technique's own
 // connection vertices recomputed). Regularisation replaces entries here, per technique.
+// Entries 0..n-1 are filled by the gathers (not at construction: the arrays are 600 bytes and
+// a connection is made per vertex), except that a limited gather (see misReadLimit) fills
+// only the entries its technique set reads.
 struct PathPdfs {
     int n = 0;
-    std::array<float, kMaxPathVertices> fromLight{}, fromCamera{};  // pL[i], pC[i] (area measure)
-    std::array<bool, kMaxPathVertices> delta{};
+    std::array<float, kMaxPathVertices> fromLight, fromCamera;  // pL[i], pC[i] (area measure)
+    std::array<bool, kMaxPathVertices> delta;
     bool lightHittable = false;  // can a camera walk reach x_0 (technique s = 0)?
     // Fast form for merges: when >= 0, the sum over the techniques with fewer light vertices than
     // the base technique, precomputed per light vertex (lightPrefixSum) and scaled at the merge;
@@ -123,6 +133,14 @@ float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg);
 inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) { return misWeight(pdfs, s, MisConfig{set}); }
 
+// The highest pdf-array index the MIS sum of `cfg` can read. The path tracer's two techniques
+// (s = 0 and s = 1, no merging) compare only x_0's two densities and read delta[0..1], so its
+// gathers stop at x_2: O(1) per connection instead of O(t). Every other set reads the whole path.
+// (Tested: weights from the limited gather equal those from the full gather.)
+inline int misReadLimit(const MisConfig& cfg) {
+    return cfg.set == TechniqueSet::PathTracer && !cfg.merging ? 2 : kMaxPathVertices;
+}
+
 // ---- Connection ----------------------------------------------------------------------------
 // A light endpoint for next-event estimation (technique s = 1), sampled from the scene's lights.
 bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVertex& out);
@@ -136,12 +154,13 @@ struct Connection {
 // Connects the light subpath y[0..s-1] with the camera subpath z[0..t-1] (s >= 1, t >= 1; t = 1 is
 // light tracing: z[0] is the camera and the result carries the raster position).
 // Returns false when the connection carries nothing.
+// Only pdf entries up to readLimit (misReadLimit) are gathered.
 bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
-             WalkStats& stats);
+             WalkStats& stats, int readLimit = kMaxPathVertices);
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
 // fills the pdfs.
-Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs);
+Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
 
 // Merge (vertex merging) of light vertex y[i] (i >= 1; `photon` holds what is needed of y[i] and
 // y[i-1], `lightPdfs` the densities of y[0..i]) with camera vertex z[t-1] (t >= 2): the
@@ -158,8 +177,9 @@ bool merge(const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* 
 // (SmallVCM's partial quantities in sum form). Recursive in m.
 double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev);
 
-// Gathers the pdfs of the camera subpath z[0..t-1] into pdfs (x indices s..s+t-1), n = s + t.
-void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs);
+// Gathers the pdfs of the camera subpath z[0..t-1] into pdfs (x indices s..s+t-1, those above
+// readLimit skipped), n = s + t.
+void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
 void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
 
 }  // namespace lt

@@ -48,35 +48,39 @@ inline float powerHeuristic(float a, float b) {
 }
 
 // Piecewise-constant 1D distribution (for lights by power, triangles by area).
+// Sampling is a branch-free binary search (a fixed number of steps for a given size, so no
+// mispredicted branches on random u) and remaps u within the bin by a multiplication.
 class Distribution1D {
 public:
     Distribution1D() = default;
-    explicit Distribution1D(const std::vector<float>& w) : func_(w), cdf_(w.size() + 1, 0.f) {
+    explicit Distribution1D(const std::vector<float>& w) : cdf_(w.size() + 1, 0.0), invWidth_(w.size(), 0.0) {
         for (size_t i = 0; i < w.size(); ++i) cdf_[i + 1] = cdf_[i] + double(w[i]);
         total_ = cdf_.back();
         for (size_t i = 1; i < cdf_.size(); ++i)
             cdf_[i] = total_ > 0 ? cdf_[i] / total_ : double(i) / double(w.size());
+        for (size_t i = 0; i < w.size(); ++i) {
+            double width = cdf_[i + 1] - cdf_[i];
+            invWidth_[i] = width > 0 ? 1.0 / width : 0.0;
+        }
     }
-    size_t size() const { return func_.size(); }
+    size_t size() const { return invWidth_.size(); }
     double total() const { return total_; }
-    // Returns index; u is remapped to [0,1) within the chosen bin.
+    // Returns the bin i with cdf[i] <= u < cdf[i+1] (never a bin of zero weight); u is remapped
+    // to [0,1) within the chosen bin.
     size_t sample(float u, float* remapped = nullptr) const {
-        size_t lo = 0, hi = func_.size();
-        while (lo + 1 < hi) {
-            size_t mid = (lo + hi) / 2;
-            if (cdf_[mid] <= u) lo = mid; else hi = mid;
+        size_t lo = 0, len = invWidth_.size();
+        while (len > 1) {
+            size_t half = len / 2;
+            lo = cdf_[lo + half] <= double(u) ? lo + half : lo;
+            len -= half;
         }
-        if (remapped) {
-            double w = cdf_[lo + 1] - cdf_[lo];
-            *remapped = w > 0 ? float(std::min(0.99999994, (u - cdf_[lo]) / w)) : 0.f;
-        }
+        if (remapped) *remapped = float(std::min(0.99999994, (double(u) - cdf_[lo]) * invWidth_[lo]));
         return lo;
     }
     float probability(size_t i) const { return float(cdf_[i + 1] - cdf_[i]); }
 
 private:
-    std::vector<float> func_;
-    std::vector<double> cdf_;
+    std::vector<double> cdf_, invWidth_;
     double total_ = 0;
 };
 

@@ -1,5 +1,8 @@
 #include "core/scene.h"
 #include <fmt/core.h>
+#include <immintrin.h>
+#include <bit>
+#include <cstddef>
 #include <stdexcept>
 
 namespace lt {
@@ -109,7 +112,12 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         unsigned id = rtcAttachGeometry(scene_, g);
         rtcReleaseGeometry(g);
         if (geoms_.size() <= id) geoms_.resize(id + 1);
-        geoms_[id].mesh = int(i);
+        GeomInfo& gi = geoms_[id];
+        gi.mesh = int(i);
+        gi.positions = m.positions.data();
+        gi.normals = m.normals.empty() ? nullptr : m.normals.data();
+        gi.uvs = m.uvs.empty() ? nullptr : m.uvs.data();
+        gi.indices = m.indices.data();
         triangleCount_ += nt;
     }
     spheres_.reserve(desc_.spheres.size());
@@ -174,6 +182,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         lights_.push_back(l);
     }
     meshTriDist_.resize(desc_.meshes.size());
+    meshTris_.resize(desc_.meshes.size());
     for (size_t i = 0; i < desc_.meshes.size(); ++i) {
         const MeshDesc& m = desc_.meshes[i];
         if (m.emitter < 0) continue;
@@ -184,8 +193,18 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         double total = 0;
         for (size_t t = 0; t < areas.size(); ++t) total += (areas[t] = triangleArea(m, t));
         l.area = float(total);
+        l.invArea = total > 0 ? float(1.0 / total) : 0.f;
         meshTriDist_[i] = Distribution1D(areas);
         meshLight_[i] = li;
+        meshTris_[i].reserve(areas.size());
+        for (size_t t = 0; t < areas.size(); ++t) {
+            const Vec3& a = m.positions[m.indices[3 * t]];
+            const Vec3& b = m.positions[m.indices[3 * t + 1]];
+            const Vec3& c = m.positions[m.indices[3 * t + 2]];
+            Vec3 n = glm::cross(b - a, c - a);
+            float len = glm::length(n);
+            meshTris_[i].push_back({a, b - a, c - a, len > 0.f ? n / len : Vec3(0.f)});
+        }
     }
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
         const SphereDesc& s = desc_.spheres[i];
@@ -193,6 +212,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         int li = emitterToLight.at(s.emitter);
         lights_[li].sphereIndex = int(i);
         lights_[li].area = 4.f * kPi * s.radius * s.radius;
+        lights_[li].invArea = lights_[li].area > 0.f ? 1.f / lights_[li].area : 0.f;
         sphereLight_[i] = li;
     }
     // Drop area emitters not attached to any shape (the loader should not produce them).
@@ -201,6 +221,16 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     lightDist_ = Distribution1D(power);
     for (const Light& l : lights_)
         if (l.type == LightType::Constant) envLights_.push_back(&l);
+    // Materials and emitters per Embree geometry (lights_ no longer changes: pointers are stable).
+    for (GeomInfo& gi : geoms_) {
+        int bsdf = -1, light = -1;
+        if (gi.mesh >= 0) bsdf = desc_.meshes[gi.mesh].bsdf, light = meshLight_[gi.mesh];
+        else if (gi.sphere >= 0) bsdf = desc_.spheres[gi.sphere].bsdf, light = sphereLight_[gi.sphere];
+        gi.bxdf = bsdf >= 0 ? desc_.bsdfs[bsdf].get() : nullptr;
+        gi.light = light >= 0 ? &lights_[light] : nullptr;
+        gi.deltaBsdf = gi.bxdf && gi.bxdf->isDelta();
+        gi.roughness = gi.bxdf ? gi.bxdf->roughness() : 1.f;
+    }
 }
 
 Scene::~Scene() {
@@ -229,15 +259,16 @@ Ray Scene::spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const {
     return r;
 }
 
+// Fills an Embree ray with whole 16-byte stores: Embree loads (org, tnear) and (dir, time) as
+// 16-byte vectors, and a vector load from four separate scalar stores cannot be forwarded from
+// the store buffer (a stall of about a dozen cycles per ray, measured with perf).
 static void fillRay(RTCRay& r, const Ray& ray) {
-    r.org_x = ray.o.x; r.org_y = ray.o.y; r.org_z = ray.o.z;
-    r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
-    r.tnear = ray.tMin;
-    r.tfar = ray.tMax;
-    r.time = 0.f;
-    r.mask = 0xFFFFFFFFu;
-    r.id = 0;
-    r.flags = 0;
+    static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 && offsetof(RTCRay, flags) == 44);
+    auto* f = reinterpret_cast<float*>(&r);
+    _mm_storeu_ps(f, _mm_setr_ps(ray.o.x, ray.o.y, ray.o.z, ray.tMin));
+    _mm_storeu_ps(f + 4, _mm_setr_ps(ray.d.x, ray.d.y, ray.d.z, 0.f));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(f + 8),  // tfar, mask, id, flags
+                     _mm_setr_epi32(std::bit_cast<int>(ray.tMax), -1, 0, 0));
 }
 
 bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
@@ -253,24 +284,25 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     hit.t = rh.ray.tfar;
     hit.geomId = int(rh.hit.geomID);
     hit.primId = int(rh.hit.primID);
+    hit.bxdf = gi.bxdf;
+    hit.light = gi.light;
+    hit.deltaBsdf = gi.deltaBsdf;
+    hit.roughness = gi.roughness;
     Vec3 ns;
     if (gi.mesh >= 0) {
-        const MeshDesc& m = desc_.meshes[gi.mesh];
-        uint32_t i0 = m.indices[3 * rh.hit.primID], i1 = m.indices[3 * rh.hit.primID + 1],
-                 i2 = m.indices[3 * rh.hit.primID + 2];
-        float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.f - b1 - b2;
-        const Vec3 &p0 = m.positions[i0], &p1 = m.positions[i1], &p2 = m.positions[i2];
+        const uint32_t* idx = gi.indices + 3 * size_t(rh.hit.primID);
+        const uint32_t i0 = idx[0], i1 = idx[1], i2 = idx[2];
+        const float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.f - b1 - b2;
+        const Vec3 &p0 = gi.positions[i0], &p1 = gi.positions[i1], &p2 = gi.positions[i2];
         hit.p = b0 * p0 + b1 * p1 + b2 * p2;  // barycentric: more accurate than o + t d
         hit.ng = glm::normalize(glm::cross(p1 - p0, p2 - p0));
         ns = hit.ng;
-        if (!m.normals.empty()) {
-            Vec3 n = b0 * m.normals[i0] + b1 * m.normals[i1] + b2 * m.normals[i2];
+        if (gi.normals) {
+            Vec3 n = b0 * gi.normals[i0] + b1 * gi.normals[i1] + b2 * gi.normals[i2];
             float len = glm::length(n);
             if (len > 0.f && std::isfinite(len)) ns = n / len;
         }
-        if (!m.uvs.empty()) hit.uv = b0 * m.uvs[i0] + b1 * m.uvs[i1] + b2 * m.uvs[i2];
-        hit.bxdf = m.bsdf >= 0 ? desc_.bsdfs[m.bsdf].get() : nullptr;
-        hit.light = meshLight_[gi.mesh] >= 0 ? &lights_[meshLight_[gi.mesh]] : nullptr;
+        hit.uv = gi.uvs ? b0 * gi.uvs[i0] + b1 * gi.uvs[i1] + b2 * gi.uvs[i2] : Vec2(0.f);
     } else {
         const SphereDesc& s = desc_.spheres[gi.sphere];
         Vec3 d = ray.o + hit.t * ray.d - s.center;
@@ -280,8 +312,6 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
         hit.ng = ns = n;
         Vec3 dl = glm::normalize(d);
         hit.uv = Vec2(std::atan2(dl.y, dl.x) * (0.5f * kInvPi) + 0.5f, std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
-        hit.bxdf = s.bsdf >= 0 ? desc_.bsdfs[s.bsdf].get() : nullptr;
-        hit.light = sphereLight_[gi.sphere] >= 0 ? &lights_[sphereLight_[gi.sphere]] : nullptr;
     }
     // The shading normal lives on the same side as the geometric one.
     if (glm::dot(ns, hit.ng) < 0.f) ns = -ns;
@@ -320,14 +350,11 @@ void Scene::sampleAreaLight(const Light& l, const Vec2& uIn, Vec3& p, Vec3& n) c
         n = s.flipNormals ? -d : d;
         return;
     }
-    const MeshDesc& m = desc_.meshes[l.meshIndex];
     size_t tri = meshTriDist_[l.meshIndex].sample(u.x, &u.x);  // u.x reused, remapped within the bin
-    const Vec3& a = m.positions[m.indices[3 * tri]];
-    const Vec3& b = m.positions[m.indices[3 * tri + 1]];
-    const Vec3& c = m.positions[m.indices[3 * tri + 2]];
+    const EmitterTriangle& et = meshTris_[l.meshIndex][tri];
     Vec2 bc = sampleUniformTriangle(u);
-    p = (1.f - bc.x - bc.y) * a + bc.x * b + bc.y * c;
-    n = glm::normalize(glm::cross(b - a, c - a));
+    p = et.p0 + bc.x * et.e1 + bc.y * et.e2;
+    n = et.n;
 }
 
 }  // namespace lt

@@ -23,6 +23,8 @@ struct SurfaceHit {
     Vec2 uv{0.f};
     const Bxdf* bxdf = nullptr;
     const Light* light = nullptr;  // area light on this surface, if any
+    bool deltaBsdf = false;        // bxdf has only delta lobes (cached: no virtual call per vertex)
+    float roughness = 1.f;         // bxdf->roughness(), cached per shape
     int geomId = -1, primId = -1;
 };
 
@@ -70,11 +72,25 @@ private:
     std::vector<Light> lights_;
     Distribution1D lightDist_;
     std::vector<const Light*> envLights_;
-    struct GeomInfo { int mesh = -1, sphere = -1; };
+    // What a hit needs of its shape, by Embree geomID, flat (no lookups through the description).
+    struct GeomInfo {
+        int mesh = -1, sphere = -1;
+        const Vec3* positions = nullptr;
+        const Vec3* normals = nullptr;  // null: face normals
+        const Vec2* uvs = nullptr;
+        const uint32_t* indices = nullptr;
+        const Bxdf* bxdf = nullptr;
+        const Light* light = nullptr;
+        bool deltaBsdf = false;
+        float roughness = 1.f;
+    };
+    // An emitting triangle, ready for sampling: p = p0 + b1 e1 + b2 e2, unit normal n.
+    struct EmitterTriangle { Vec3 p0, e1, e2, n; };
     std::vector<SphereGeom> spheres_;  // user data of the Embree sphere geometries (double precision)
     std::vector<GeomInfo> geoms_;                  // by Embree geomID
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
     std::vector<Distribution1D> meshTriDist_;      // area-proportional triangle choice per emitter mesh
+    std::vector<std::vector<EmitterTriangle>> meshTris_;  // per emitter mesh
     Vec3 center_{0.f};
     float radius_ = 1.f, geometryRadius_ = 1.f;
     float offsetScale_ = 0.f;  // scene-relative part of the ray offset

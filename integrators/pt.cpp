@@ -35,15 +35,16 @@ public:
 
     Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z,
                    WalkStats& stats) const {
-        int nz = cameraWalk(scene, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats);
+        int nz = cameraWalk(scene, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats, WalkPdfs::EmitterHits);
         Color L(0.f);
         PathPdfs pdfs;
+        const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
         for (int t = 2; t <= nz; ++t) {
             const PathVertex& v = z[t - 1];
             // s = 0: the walk hit an emitter (t - 1 segments).
             bool neeImpossible = t == 2 || !z[t - 2].connectible();
             if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
-                Color c = emitterHit(scene, z, t, pdfs);
+                Color c = emitterHit(scene, z, t, pdfs, readLimit);
                 if (!isBlack(c))
                     L += c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
             }
@@ -51,7 +52,7 @@ public:
             if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && v.connectible()) {
                 PathVertex y;
                 Connection conn;
-                if (sampleLightVertex(scene, v.p, rng, y) && connect(scene, &y, 1, z, t, conn, stats))
+                if (sampleLightVertex(scene, v.p, rng, y) && connect(scene, &y, 1, z, t, conn, stats, readLimit))
                     L += conn.contribution *
                          (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
             }

@@ -267,6 +267,62 @@ TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation; weights sum to on
     CHECK(grazingPaths * 1000 < checkedPaths);
 }
 
+// The path tracer's fast forms: its camera walk computes densities at emitter hits only
+// (WalkPdfs::EmitterHits) and its connections gather pdf entries 0..misReadLimit only. Both must
+// give exactly the weights of a full walk with a full gather, for NEE (s = 1) and emitter hits (s = 0).
+TEST_CASE("MIS: the path tracer's limited walk and gather give the full-gather weights", "[pt][mis]") {
+    SceneDesc d = cornellBox(8, ggx());
+    d.meshes.push_back(smoothSphere(Vec3(-0.45f, -0.65f, 0.2f), 0.3f, 5, 7, 0));  // delta vertices
+    Scene scene(d);
+    WalkStats ws;
+    std::array<PathVertex, kMaxPathVertices> zFull, zFast;
+    const MisConfig cfg{TechniqueSet::PathTracer};
+    const int limit = misReadLimit(cfg);
+    REQUIRE(limit < kMaxPathVertices);
+    int neeChecked = 0, hitsChecked = 0;
+    // Entries a limited gather does not fill are poisoned, so reading one shows.
+    auto poison = [](PathPdfs& p) {
+        p.fromLight.fill(std::numeric_limits<float>::quiet_NaN());
+        p.fromCamera.fill(std::numeric_limits<float>::quiet_NaN());
+        p.delta.fill(true);
+    };
+    for (uint64_t i = 0; i < 4000; ++i) {
+        Vec2 raster(float(i % 8) + 0.5f, float((i / 8) % 8) + 0.5f);
+        Rng r1(i, 7), r2(i, 7);
+        int n1 = cameraWalk(scene, raster, r1, 9, 100, zFull.data(), ws, WalkPdfs::All);
+        int n2 = cameraWalk(scene, raster, r2, 9, 100, zFast.data(), ws, WalkPdfs::EmitterHits);
+        REQUIRE(n1 == n2);  // the same random numbers, the same path
+        for (int t = 2; t <= n1; ++t) {
+            INFO("path " << i << " t=" << t);
+            if (zFull[t - 1].light) {
+                PathPdfs a, b;
+                poison(b);
+                Color ca = emitterHit(scene, zFull.data(), t, a);
+                Color cb = emitterHit(scene, zFast.data(), t, b, limit);
+                REQUIRE(ca == cb);
+                if (!isBlack(ca)) {
+                    CHECK(misWeight(a, 0, cfg) == misWeight(b, 0, cfg));
+                    ++hitsChecked;
+                }
+            }
+            Rng lr(i * 131 + t, 9);
+            PathVertex light;
+            if (!sampleLightVertex(scene, zFull[t - 1].p, lr, light)) continue;
+            Connection a, b;
+            poison(b.pdfs);
+            bool okA = connect(scene, &light, 1, zFull.data(), t, a, ws);
+            bool okB = connect(scene, &light, 1, zFast.data(), t, b, ws, limit);
+            REQUIRE(okA == okB);
+            if (!okA) continue;
+            CHECK(misWeight(a.pdfs, 1, cfg) == misWeight(b.pdfs, 1, cfg));
+            CHECK(std::isfinite(misWeight(b.pdfs, 1, cfg)));
+            ++neeChecked;
+        }
+    }
+    CHECK(neeChecked > 3000);
+    CHECK(hitsChecked > 100);
+}
+
 TEST_CASE("no integrator produces NaN, Inf or negative pixels with point/spot lights, mirrors, glass",
           "[pt][bpt]") {
     for (BxdfPtr m : {makeDielectric(1.5f), makeConductor(Color(0.2f), Color(3.f), Color(1.f)),

@@ -106,3 +106,36 @@ TEST_CASE("every light type and integrator matches the analytic direct lighting 
         }
     }
 }
+
+// The light and emitting-triangle choice (branch-free binary search, remap by multiplication):
+// deterministic, on a fine grid of u, against the definition cdf[i] <= u < cdf[i+1], for every
+// size from 1 to 17 (the search's step count depends on the size) and with zero-weight bins
+// (which must never be chosen), first, inside and last.
+TEST_CASE("Distribution1D picks the bin whose cdf interval holds u and remaps u within it", "[lights]") {
+    for (int n = 1; n <= 17; ++n) {
+        std::vector<float> w(static_cast<size_t>(n));
+        for (int i = 0; i < n; ++i) w[size_t(i)] = (i % 3 == 1) ? 0.f : float(1 + (i * 7) % 5);
+        if (n > 2) w[0] = 0.f, w[size_t(n - 1)] = 0.f;
+        double total = 0;
+        for (float x : w) total += x;
+        if (total == 0) continue;
+        Distribution1D dist(w);
+        REQUIRE(dist.size() == size_t(n));
+        std::vector<double> cdf(size_t(n) + 1, 0.0);
+        for (int i = 0; i < n; ++i) cdf[size_t(i) + 1] = cdf[size_t(i)] + w[size_t(i)] / total;
+        for (int k = 0; k < 4096; ++k) {
+            float u = (float(k) + 0.37f) / 4096.f;
+            float remapped = -1.f;
+            size_t i = dist.sample(u, &remapped);
+            INFO("n=" << n << " u=" << u << " bin " << i);
+            REQUIRE(i < size_t(n));
+            CHECK(w[i] > 0.f);
+            CHECK(cdf[i] <= double(u) + 1e-6);
+            CHECK(double(u) < cdf[i + 1] + 1e-6);
+            CHECK(remapped >= 0.f);
+            CHECK(remapped < 1.f);
+            CHECK(remapped == Approx((double(u) - cdf[i]) / (cdf[i + 1] - cdf[i])).margin(1e-4));
+            CHECK(dist.probability(i) == Approx(w[i] / total).epsilon(1e-6));
+        }
+    }
+}
