@@ -7,6 +7,7 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
     radius_ = radius;
     cellStarts_.clear();
     photons_.clear();
+    positions_.clear();
     const auto& v = store.vertices();
     const auto& pdfs = store.pdfs();
     const size_t nv = v.size();
@@ -66,6 +67,8 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
     fill_.assign(cellStarts_.begin(), cellStarts_.end() - 1);
     for (size_t k = 0; k < nv; ++k)
         if (cellOf_[k] != UINT32_MAX) photons_[fill_[cellOf_[k]]++] = items_[k];
+    positions_.resize(count);
+    for (size_t k = 0; k < count; ++k) positions_[k] = glm::vec4(photons_[k].p, 0.f);
 }
 
 }  // namespace lt

@@ -70,41 +70,89 @@ public:
     // Inserts the light vertices a merge can use: after at least one segment, on a surface,
     // not sampled through a delta lobe.
     void build(const LightPathStore& store, float radius, const MisConfig& cfg);
-    template <class F>
-    void query(const Vec3& p, F&& f) const {
+    // A query in three stages, so that a caller can issue the memory loads of a query early and
+    // do other work (connections) while they arrive: the query is bound by memory latency
+    // (random cells of a table of one entry per light vertex, photon records in DRAM).
+    struct Cells {
+        uint32_t hash[8];
+        uint32_t begin[8], end[8];
+    };
+    // Stage 1: the 8 cells overlapping the ball around p; prefetches their table entries.
+    void locate(const Vec3& p, Cells& cells) const {
         if (cellStarts_.empty()) return;
         Vec3 g = (p - lo_) * invCell_ - Vec3(0.5f);
         glm::ivec3 c0(std::floor(g.x), std::floor(g.y), std::floor(g.z));
-        float r2 = radius_ * radius_;
-        // The query is bound by memory latency: issue the 8 cells' loads before using any.
-        uint32_t h[8];
         for (int c = 0; c < 8; ++c) {
-            h[c] = cellHash(c0 + glm::ivec3(c & 1, (c >> 1) & 1, c >> 2));
-            __builtin_prefetch(&cellStarts_[h[c]]);
+            cells.hash[c] = cellHash(c0 + glm::ivec3(c & 1, (c >> 1) & 1, c >> 2));
+            __builtin_prefetch(&cellStarts_[cells.hash[c]]);
         }
-        uint32_t begin[8], end[8];
+    }
+    // Stage 2: reads the cells' photon ranges; prefetches their positions (the compact array).
+    void fetch(Cells& cells) const {
+        if (cellStarts_.empty()) return;
         for (int c = 0; c < 8; ++c) {
-            begin[c] = cellStarts_[h[c]];
-            end[c] = cellStarts_[h[c] + 1];
-            if (begin[c] < end[c]) __builtin_prefetch(&photons_[begin[c]]);
+            cells.begin[c] = cellStarts_[cells.hash[c]];
+            cells.end[c] = cellStarts_[cells.hash[c] + 1];
+            // Two of the 8 cells may hash to the same entry: scan it once (a photon must not be
+            // merged twice; the brute-force comparison test found this).
+            for (int j = 0; j < c; ++j)
+                if (cells.hash[j] == cells.hash[c]) cells.end[c] = cells.begin[c];
+            // Four positions per cache line; at most four lines per cell.
+            for (uint32_t k = cells.begin[c]; k < cells.end[c] && k < cells.begin[c] + 16; k += 4)
+                __builtin_prefetch(&positions_[k]);
         }
+    }
+    // Stage 3: calls f for every photon within the radius of p. Positions are tested first and
+    // the records of those inside prefetched together, then f is called on them in order.
+    template <class F>
+    void scan(const Vec3& p, const Cells& cells, F&& f) const {
+        if (cellStarts_.empty()) return;
+        const float r2 = radius_ * radius_;
+        uint32_t inside[64];
+        int n = 0;
+        auto flush = [&] {
+            for (int j = 0; j < n; ++j) f(photons_[inside[j]]);
+            n = 0;
+        };
         for (int c = 0; c < 8; ++c)
-            for (uint32_t k = begin[c]; k < end[c]; ++k) {
-                Vec3 d = photons_[k].p - p;
-                if (glm::dot(d, d) <= r2) f(photons_[k]);
+            for (uint32_t k = cells.begin[c]; k < cells.end[c]; ++k) {
+                Vec3 d = Vec3(positions_[k]) - p;
+                if (glm::dot(d, d) <= r2) {
+                    __builtin_prefetch(&photons_[k]);
+                    __builtin_prefetch(reinterpret_cast<const char*>(&photons_[k]) + 64);
+                    inside[n++] = k;
+                    if (n == 64) flush();
+                }
             }
+        flush();
+    }
+    // All three stages at once.
+    template <class F>
+    void query(const Vec3& p, F&& f) const {
+        Cells cells;
+        locate(p, cells);
+        fetch(cells);
+        scan(p, cells, f);
     }
     float radius() const { return radius_; }
     size_t size() const { return photons_.size(); }
 
 private:
+    // Teschner et al.'s hash, mixed (murmur3 finaliser) and mapped to [0, tableSize) by a
+    // multiply-shift instead of a modulo (eight integer divisions per query were measurable).
     static uint32_t cellHashMod(const glm::ivec3& c, size_t tableSize) {
-        uint32_t x = uint32_t(c.x) * 73856093u, y = uint32_t(c.y) * 19349663u, z = uint32_t(c.z) * 83492791u;
-        return (x ^ y ^ z) % uint32_t(tableSize);
+        uint32_t h = (uint32_t(c.x) * 73856093u) ^ (uint32_t(c.y) * 19349663u) ^ (uint32_t(c.z) * 83492791u);
+        h ^= h >> 16;
+        h *= 0x85ebca6bu;
+        h ^= h >> 13;
+        h *= 0xc2b2ae35u;
+        h ^= h >> 16;
+        return uint32_t((uint64_t(h) * uint64_t(tableSize)) >> 32);
     }
     uint32_t cellHash(const glm::ivec3& c) const { return cellHashMod(c, cellStarts_.size() - 1); }
     std::vector<uint32_t> cellStarts_;
     std::vector<Photon> photons_;
+    std::vector<glm::vec4> positions_;            // photons_[k].p, compact (16 bytes), same order
     std::vector<Photon> items_;                   // scratch, kept across iterations
     std::vector<uint32_t> cellOf_, fill_;         // scratch
     Vec3 lo_{0.f};

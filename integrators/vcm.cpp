@@ -160,8 +160,15 @@ private:
         Color L(0.f);
         PathPdfs pdfs;
         bool allDelta = true;  // z[1..t-2] all delta (PPM counts emitter hits only then)
+        // Merging: the grid's cells for every camera vertex are located (and their table entries
+        // prefetched) now, and each vertex's photon ranges fetched before its connections, so
+        // that the memory latency of the queries overlaps the connection work.
+        std::array<HashGrid::Cells, kMaxPathVertices> cells;
+        if (useMerging_)
+            for (int t = 2; t <= nz; ++t) grid_.locate(z[t - 1].p, cells[t - 1]);
         for (int t = 2; t <= nz; ++t) {
             const PathVertex& v = z[t - 1];
+            if (useMerging_) grid_.fetch(cells[t - 1]);
             // s = 0: emitter hit.
             if (v.light && !(settings_.hideEmitters && t == 2) && (useConnections_ || (ppm_ && allDelta))) {
                 Color c = emitterHit(scene, z, t, pdfs);
@@ -184,7 +191,7 @@ private:
             }
             if (useMerging_) {
                 Connection c;
-                grid_.query(v.p, [&](const Photon& ph) {
+                grid_.scan(v.p, cells[t - 1], [&](const Photon& ph) {
                     int i = ph.depth;
                     if (i + t - 1 > maxDepth_) return;
                     if (!merge(ph, nullptr, z, t, c)) return;  // fast form (tested against the gathered)
