@@ -196,6 +196,10 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     double r = 1.0;
     for (int k = base; k <= std::max(kMax, base); ++k) {
         if (k > base) r *= remap(pdfs.fromLight[k - 1]) / remap(pdfs.fromCamera[k - 1]);
+        if (k == base + 2 && pdfs.aboveBase >= 0.0) {
+            sum += r * r * pdfs.aboveBase;
+            break;
+        }
         if (validVC(k)) sum += r * r;
         if (k < n && validVM(k)) {
             double q = r * vm * remap(pdfs.fromLight[k]);
@@ -229,6 +233,19 @@ double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisC
     }
     if (m == 0) return own;
     double ratio = remap(y[m - 1].rev) / remap(y[m - 1].fwd);
+    return own + ratio * ratio * prev;
+}
+
+double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double prev) {
+    auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
+    // Technique with camera side z[0..m] (t' = m + 1; its light side ends at z[m+1]'s position),
+    // and the merge at z[m] (not at the camera).
+    double own = allowsTechnique(cfg.set, 1, m + 1) && !z[m + 1].delta && !z[m].delta ? 1.0 : 0.0;
+    if (cfg.merging && m >= 1 && !z[m].delta) {
+        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remap(z[m].pdfRev.value);
+        own += q * q;
+    }
+    double ratio = remap(z[m].pdfRev.value) / remap(z[m].pdfFwd.value);
     return own + ratio * ratio * prev;
 }
 
@@ -279,7 +296,7 @@ Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs,
     Color Le = v.light->Le(v.ng, v.wo);
     if (isBlack(Le)) return Color(0.f);
     gatherCameraPdfs(z, t, 0, pdfs, readLimit);
-    pdfs.belowBase = -1.0;
+    pdfs.belowBase = pdfs.aboveBase = -1.0;
     float sel = scene.lightSelectionProb(v.light);
     pdfs.fromLight[0] = sel * v.light->pdfLi(scene, z[t - 2].p, v.p, v.ng, -v.wo).value;
     pdfs.delta[0] = false;
@@ -370,7 +387,7 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
 
     // MIS pdfs: the path's own, with the four values at the connection recomputed.
     PathPdfs& P = c.pdfs;
-    P.belowBase = -1.0;
+    P.belowBase = P.aboveBase = -1.0;
     gatherLightPdfs(y, s, P);
     gatherCameraPdfs(z, t, s, P, readLimit);
     P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, b, a).value;
@@ -386,7 +403,8 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
     return true;
 }
 
-bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c) {
+bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
+           const double* cameraSums) {
     const int i = ph.depth;
     const PathVertex& zv = z[t - 1];
     if (i < 1 || t < 2 || !zv.connectible() || zv.infinite) return false;
@@ -397,6 +415,7 @@ bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, i
     // Full path: x_0..x_i from the light subpath (x_i at the camera vertex), then z[t-2]..z[0].
     PathPdfs& P = c.pdfs;
     P.belowBase = -1.0;
+    P.aboveBase = cameraSums ? (t >= 3 ? cameraSums[t - 3] : 0.0) : -1.0;
     if (lightPdfs) {
         for (int k = 0; k <= i; ++k) {
             P.fromLight[k] = lightPdfs[k].fwd;
@@ -408,7 +427,7 @@ bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, i
         P.delta[i - 1] = ph.prevDelta != 0;
     }
     P.lightHittable = ph.lightHittable != 0;
-    gatherCameraPdfs(z, t, i, P);
+    gatherCameraPdfs(z, t, i, P, cameraSums ? i + 1 : kMaxPathVertices);
     P.fromLight[i] = ph.pdfFwd;
     P.delta[i] = false;
     // Camera walk continuing from the merge vertex to y[i-1].

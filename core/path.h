@@ -122,6 +122,10 @@ struct PathPdfs {
     // the base technique, precomputed per light vertex (lightPrefixSum) and scaled at the merge;
     // entries below base - 1 are then not read. Checked against the gathered form in tests.
     double belowBase = -1.0;
+    // Fast form for merges, camera side: when >= 0, the sum over the techniques k >= base + 2
+    // relative to p_VC(base + 2) (cameraPrefixSum of the camera vertex x_{base+2}); the upward
+    // sum stops there and entries above base + 1 are not read. Checked against the gathered form.
+    double aboveBase = -1.0;
 };
 
 // Power-heuristic weight of connection technique s: p_s^2 / sum_k (n_k p_k)^2 over the techniques
@@ -170,12 +174,21 @@ Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs,
 // neighbours are gathered, and the light side comes from photon.misLight (lightPrefixSum).
 struct Photon;
 struct VertexPdfs;
-bool merge(const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c);
+// With cameraSums (cameraSums[m] = cameraPrefixSum of z[m]) the camera side is O(1) too.
+bool merge(const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
+           const double* cameraSums = nullptr);
 
 // For light vertex y[m] of a light subpath (pdfs of y[0..m]): the sum over techniques k <= m of
 // (p_k / p_VC(m+1))^2 / (pC[m] / pL[m])^2, i.e. what a merge at y[m+1] needs of the light side
 // (SmallVCM's partial quantities in sum form). Recursive in m.
 double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev);
+
+// The camera-side mirror of lightPrefixSum, for camera vertex z[m] (m + 1 < number of camera
+// vertices): the sum over the techniques whose camera side is z[0..m'] with m' <= m, of
+// (p_k / p_k(m))^2, p_k(m) the technique with camera side z[0..m]; merges included. Recursive in
+// m (prev = the value for z[m-1], 0 for m = 0). Only for technique sets whose validity depends on
+// the number of camera vertices alone (not PathTracer).
+double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double prev);
 
 // Gathers the pdfs of the camera subpath z[0..t-1] into pdfs (x indices s..s+t-1, those above
 // readLimit skipped), n = s + t.

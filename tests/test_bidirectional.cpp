@@ -273,7 +273,8 @@ TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation; weights sum to on
 // give exactly the weights of a full walk with a full gather, for NEE (s = 1) and emitter hits (s = 0).
 TEST_CASE("MIS: the path tracer's limited walk and gather give the full-gather weights", "[pt][mis]") {
     SceneDesc d = cornellBox(8, ggx());
-    d.meshes.push_back(smoothSphere(Vec3(-0.45f, -0.65f, 0.2f), 0.3f, 5, 7, 0));  // delta vertices
+    d.bsdfs.push_back(makeConductor(Color(0.2f), Color(3.f), Color(1.f)));  // a mirror: delta vertices
+    d.meshes.push_back(smoothSphere(Vec3(-0.3f, -0.6f, 0.2f), 0.4f, 8, 12, int(d.bsdfs.size()) - 1));
     Scene scene(d);
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> zFull, zFast;
@@ -374,6 +375,8 @@ TEST_CASE("bidirectional images are bit-identical for 1 and 2 threads", "[bpt][d
 
 TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the gathered form", "[vcm][mis]") {
     SceneDesc d = cornellBox(8, ggx());
+    d.bsdfs.push_back(makeConductor(Color(0.2f), Color(3.f), Color(1.f)));  // a mirror: delta vertices
+    d.meshes.push_back(smoothSphere(Vec3(-0.3f, -0.6f, 0.2f), 0.4f, 8, 12, int(d.bsdfs.size()) - 1));
     Scene scene(d);
     WalkStats ws;
     MisConfig cfg{TechniqueSet::Bidirectional, true, kPi * 0.05f * 0.05f, 256.f};
@@ -390,28 +393,37 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
     HashGrid grid;
     grid.build(store, 0.05f, cfg);
     REQUIRE(grid.size() > 100);
-    int merges = 0;
+    int merges = 0, deepMerges = 0;  // deep: the camera-side sum is used (t >= 3)
     for (uint64_t i = 0; i < 2000; ++i) {
         Rng rng(i, 78);
         int nz = cameraWalk(scene, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, 100, z.data(), ws);
+        std::array<double, kMaxPathVertices> cameraSums;
+        double prev = 0.0;
+        for (int m = 0; m + 1 < nz; ++m) cameraSums[m] = prev = cameraPrefixSum(z.data(), m, cfg, prev);
         for (int t = 2; t <= nz; ++t) {
             if (!z[t - 1].connectible() || z[t - 1].infinite) continue;
             grid.query(z[t - 1].p, [&](const Photon& ph) {
-                Connection gathered, fast;
+                Connection gathered, fast, fastBoth;
                 const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
                 bool a = merge(ph, pdfs, z.data(), t, gathered);
                 bool b = merge(ph, nullptr, z.data(), t, fast);
+                bool c = merge(ph, nullptr, z.data(), t, fastBoth, cameraSums.data());
                 REQUIRE(a == b);
+                REQUIRE(a == c);
                 if (!a) return;
                 float wg = misWeightMerge(gathered.pdfs, ph.depth, cfg), wf = misWeightMerge(fast.pdfs, ph.depth, cfg);
+                float wb = misWeightMerge(fastBoth.pdfs, ph.depth, cfg);
                 INFO("photon depth " << int(ph.depth) << " t " << t);
                 CHECK(wf == Approx(wg).epsilon(1e-4).margin(1e-7));
+                CHECK(wb == Approx(wg).epsilon(1e-4).margin(1e-7));  // light and camera sides both fast
                 CHECK(fast.contribution == gathered.contribution);
                 ++merges;
+                if (t >= 3) ++deepMerges;
             });
         }
     }
     CHECK(merges > 500);
+    CHECK(deepMerges > 200);
 }
 
 // The grid query (hashed cells, compact positions, staged prefetching) finds exactly the light
