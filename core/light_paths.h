@@ -5,6 +5,7 @@
 // compact array, so that a merge can gather a light subpath's pdfs without touching its vertices.
 #pragma once
 #include <vector>
+#include "core/huge_pages.h"
 #include "core/path.h"
 
 namespace lt {
@@ -20,8 +21,10 @@ public:
     size_t paths() const { return offset_.size(); }
     const PathVertex* path(size_t j) const { return vertices_.data() + offset_[j]; }
     int length(size_t j) const { return int(count_[j]); }
-    const std::vector<PathVertex>& vertices() const { return vertices_; }
-    const std::vector<VertexPdfs>& pdfs() const { return pdfs_; }
+    template <class T>
+    using HugeVector = std::vector<T, HugePageAllocator<T>>;
+    const HugeVector<PathVertex>& vertices() const { return vertices_; }
+    const HugeVector<VertexPdfs>& pdfs() const { return pdfs_; }
 
     // Appends the paths built by one chunk of work, in order.
     struct Chunk {
@@ -40,8 +43,8 @@ public:
     }
 
 private:
-    std::vector<PathVertex> vertices_;
-    std::vector<VertexPdfs> pdfs_;
+    HugeVector<PathVertex> vertices_;
+    HugeVector<VertexPdfs> pdfs_;
     std::vector<uint32_t> offset_, count_;
 };
 
@@ -150,9 +153,11 @@ private:
         return uint32_t((uint64_t(h) * uint64_t(tableSize)) >> 32);
     }
     uint32_t cellHash(const glm::ivec3& c) const { return cellHashMod(c, cellStarts_.size() - 1); }
-    std::vector<uint32_t> cellStarts_;
-    std::vector<Photon> photons_;
-    std::vector<glm::vec4> positions_;            // photons_[k].p, compact (16 bytes), same order
+    template <class T>
+    using HugeVector = std::vector<T, HugePageAllocator<T>>;
+    HugeVector<uint32_t> cellStarts_;
+    HugeVector<Photon> photons_;
+    HugeVector<glm::vec4> positions_;            // photons_[k].p, compact (16 bytes), same order
     std::vector<Photon> items_;                   // scratch, kept across iterations
     std::vector<uint32_t> cellOf_, fill_;         // scratch
     Vec3 lo_{0.f};
