@@ -373,6 +373,26 @@ TEST_CASE("bidirectional images are bit-identical for 1 and 2 threads", "[bpt][d
     }
 }
 
+namespace {
+
+// A light-path store of `count` light subpaths (at most 5 segments), with fixed seeds.
+LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream) {
+    WalkStats ws;
+    LightPathStore store;
+    LightPathStore::Chunk chunk;
+    std::array<PathVertex, kMaxPathVertices> y;
+    for (uint64_t j = 0; j < uint64_t(count); ++j) {
+        Rng rng(j, stream);
+        int ny = lightWalk(scene, rng, 6, 100, y.data(), ws);
+        chunk.counts.push_back(uint32_t(ny));
+        chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
+    }
+    store.append(chunk);
+    return store;
+}
+
+}  // namespace
+
 TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the gathered form", "[vcm][mis]") {
     SceneDesc d = cornellBox(8, ggx());
     d.bsdfs.push_back(makeConductor(Color(0.2f), Color(3.f), Color(1.f)));  // a mirror: delta vertices
@@ -380,16 +400,8 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
     Scene scene(d);
     WalkStats ws;
     MisConfig cfg{TechniqueSet::Bidirectional, true, kPi * 0.05f * 0.05f, 256.f};
-    LightPathStore store;
-    LightPathStore::Chunk chunk;
-    std::array<PathVertex, kMaxPathVertices> y, z;
-    for (uint64_t j = 0; j < 256; ++j) {
-        Rng rng(j, 77);
-        int ny = lightWalk(scene, rng, 6, 100, y.data(), ws);
-        chunk.counts.push_back(uint32_t(ny));
-        chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
-    }
-    store.append(chunk);
+    LightPathStore store = lightPaths(scene, 256, 77);
+    std::array<PathVertex, kMaxPathVertices> z;
     HashGrid grid;
     grid.build(store, 0.05f, cfg);
     REQUIRE(grid.size() > 100);
@@ -433,16 +445,7 @@ TEST_CASE("the photon grid finds exactly the usable light vertices within the ra
     Scene scene(d);
     WalkStats ws;
     MisConfig cfg{TechniqueSet::Bidirectional, true, 0.f, 512.f};
-    LightPathStore store;
-    LightPathStore::Chunk chunk;
-    std::array<PathVertex, kMaxPathVertices> y;
-    for (uint64_t j = 0; j < 512; ++j) {
-        Rng rng(j, 5);
-        int ny = lightWalk(scene, rng, 6, 100, y.data(), ws);
-        chunk.counts.push_back(uint32_t(ny));
-        chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
-    }
-    store.append(chunk);
+    LightPathStore store = lightPaths(scene, 512, 5);
     const auto& v = store.vertices();
     for (float radius : {0.02f, 0.1f, 0.4f}) {
         HashGrid grid;

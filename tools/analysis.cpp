@@ -1,5 +1,6 @@
 // Shared code of the analysis tools; see analysis.h.
 #include "tools/analysis.h"
+#include "core/loader.h"
 
 #include <fmt/format.h>
 
@@ -523,6 +524,52 @@ std::string nowUtc() {
 nlohmann::json metricsJson(const ErrorMetrics& m) {
     return {{"mse", m.mse}, {"relmse", m.relMse}, {"rmsre", m.rmsRelErr}, {"mape", m.mape},
             {"mean_image", m.meanImage}, {"mean_reference", m.meanReference}};
+}
+
+int parseRunInputs(const char* tool, const std::vector<std::string>& defineList,
+                   const std::vector<std::string>& specs, const std::string& configFile,
+                   std::map<std::string, std::string>& defines, std::vector<RunConfig>& configs) {
+    try {
+        defines = parseDefines(defineList);
+        configs = gatherConfigs(specs, configFile);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "{}: error: {}\n", tool, e.what());
+        return 1;
+    }
+    return 0;
+}
+
+int loadRunScene(const char* tool, const std::string& scenePath, const std::map<std::string, std::string>& defines,
+                 SceneDesc& desc, SceneHash* hash) {
+    try {
+        desc = loadScene(scenePath, defines);
+        if (hash) *hash = hashScene(scenePath, defines);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "{}: error: {}\n", tool, e.what());
+        return 2;
+    }
+    for (const auto& w : desc.warnings) fmt::print(stderr, "warning: {}\n", w);
+    return 0;
+}
+
+int loadReference(const char* tool, const std::string& refPath, const SceneDesc& desc, Image& ref) {
+    try {
+        ref = readImage(refPath);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "{}: error: {}\n", tool, e.what());
+        return 2;
+    }
+    if (ref.width != desc.camera.width || ref.height != desc.camera.height) {
+        fmt::print(stderr, "{}: error: the reference is {}x{} but the scene renders {}x{} (use -D res=... or another "
+                           "reference)\n", tool, ref.width, ref.height, desc.camera.width, desc.camera.height);
+        return 2;
+    }
+    if (auto bad = findNonFinite(ref)) {
+        fmt::print(stderr, "{}: error: the reference has a non-finite value at pixel ({}, {})\n", tool, bad->first,
+                   bad->second);
+        return 2;
+    }
+    return 0;
 }
 
 }  // namespace lt::analysis

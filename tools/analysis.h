@@ -140,6 +140,18 @@ struct SceneHash {
 // files its shapes read, plus the -D defines. Throws on a missing scene file.
 SceneHash hashScene(const std::string& scenePath, const std::map<std::string, std::string>& defines);
 
+// ---- Tool start-up (biasvar, convergence, reference) ----------------------------------------
+// Each returns 0, or the tool's exit code after printing "<tool>: error: ..." to stderr:
+// 1 for the command line (defines, run configurations), 2 for the scene or the reference.
+int parseRunInputs(const char* tool, const std::vector<std::string>& defineList,
+                   const std::vector<std::string>& specs, const std::string& configFile,
+                   std::map<std::string, std::string>& defines, std::vector<RunConfig>& configs);
+// Loads the scene (printing its warnings) and, when hash is given, hashes it.
+int loadRunScene(const char* tool, const std::string& scenePath, const std::map<std::string, std::string>& defines,
+                 SceneDesc& desc, SceneHash* hash);
+// Reads a reference image; it must have the scene's size and finite values.
+int loadReference(const char* tool, const std::string& refPath, const SceneDesc& desc, Image& ref);
+
 // ---- Images --------------------------------------------------------------------------------
 // sum_i w_i img_i / sum_i w_i, in double precision. Sizes must agree (throws otherwise).
 Image weightedAverage(const std::vector<Image>& imgs, const std::vector<double>& weights);

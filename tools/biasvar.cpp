@@ -87,29 +87,13 @@ int main(int argc, char** argv) {
 
     std::vector<RunConfig> configs;
     std::map<std::string, std::string> defines;
-    try {
-        defines = parseDefines(defineList);
-        configs = gatherConfigs(specs, configFile);
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "biasvar: error: {}\n", e.what());
-        return 1;
-    }
+    if (int rc = parseRunInputs("biasvar", defineList, specs, configFile, defines, configs)) return rc;
     if (outDir.empty()) outDir = (fs::path("out/biasvar") / fs::path(scenePath).stem()).string();
 
     SceneDesc desc;
     Image ref;
-    try {
-        desc = loadScene(scenePath, defines);
-        ref = readImage(refPath);
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "biasvar: error: {}\n", e.what());
-        return 2;
-    }
-    if (ref.width != desc.camera.width || ref.height != desc.camera.height) {
-        fmt::print(stderr, "biasvar: error: the reference is {}x{} but the scene renders {}x{} (use -D res=...)\n",
-                   ref.width, ref.height, desc.camera.width, desc.camera.height);
-        return 2;
-    }
+    if (int rc = loadRunScene("biasvar", scenePath, defines, desc, nullptr)) return rc;
+    if (int rc = loadReference("biasvar", refPath, desc, ref)) return rc;
 
     nlohmann::json summary;
     summary["tool"] = "biasvar";

@@ -79,41 +79,14 @@ int main(int argc, char** argv) {
 
     std::vector<RunConfig> configs;
     std::map<std::string, std::string> defines;
-    try {
-        defines = parseDefines(defineList);
-        configs = gatherConfigs(specs, configFile);
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "convergence: error: {}\n", e.what());
-        return 1;
-    }
+    if (int rc = parseRunInputs("convergence", defineList, specs, configFile, defines, configs)) return rc;
     if (outDir.empty()) outDir = (fs::path("out/convergence") / fs::path(scenePath).stem()).string();
 
     SceneDesc desc;
     Image ref;
     SceneHash hash;
-    try {
-        desc = loadScene(scenePath, defines);
-        hash = hashScene(scenePath, defines);
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "convergence: error: {}\n", e.what());
-        return 2;
-    }
-    for (const auto& w : desc.warnings) fmt::print(stderr, "warning: {}\n", w);
-    try {
-        ref = readImage(refPath);
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "convergence: error: {}\n", e.what());
-        return 2;
-    }
-    if (ref.width != desc.camera.width || ref.height != desc.camera.height) {
-        fmt::print(stderr, "convergence: error: the reference is {}x{} but the scene renders {}x{} (use -D res=... or "
-                           "another reference)\n", ref.width, ref.height, desc.camera.width, desc.camera.height);
-        return 2;
-    }
-    if (auto bad = findNonFinite(ref)) {
-        fmt::print(stderr, "convergence: error: the reference has a non-finite value at pixel ({}, {})\n", bad->first, bad->second);
-        return 2;
-    }
+    if (int rc = loadRunScene("convergence", scenePath, defines, desc, &hash)) return rc;
+    if (int rc = loadReference("convergence", refPath, desc, ref)) return rc;
 
     std::map<std::string, std::vector<Row>> rows;
     nlohmann::json summary;

@@ -59,24 +59,12 @@ int main(int argc, char** argv) {
         return 1;
     }
     std::map<std::string, std::string> defines;
-    RunConfig cfg;
-    try {
-        defines = parseDefines(defineList);
-        cfg = gatherConfigs({spec}, "").front();
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "reference: error: {}\n", e.what());
-        return 1;
-    }
+    std::vector<RunConfig> configs;
+    if (int rc = parseRunInputs("reference", defineList, {spec}, "", defines, configs)) return rc;
+    const RunConfig cfg = configs.front();
     SceneDesc desc;
     SceneHash hash;
-    try {
-        desc = loadScene(scenePath, defines);
-        hash = hashScene(scenePath, defines);
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "reference: error: {}\n", e.what());
-        return 2;
-    }
-    for (const auto& w : desc.warnings) fmt::print(stderr, "warning: {}\n", w);
+    if (int rc = loadRunScene("reference", scenePath, defines, desc, &hash)) return rc;
 
     // What makes a reference (or a chunk) reusable.
     nlohmann::json key = {{"scene_sha256", hash.sha256}, {"config", cfg.spec}, {"spp", spp}, {"time", timeTotal},
