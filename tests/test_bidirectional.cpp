@@ -268,14 +268,21 @@ TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation; weights sum to on
     CHECK(grazingPaths * 1000 < checkedPaths);
 }
 
+namespace {
+// The GGX Cornell box with a mirror sphere: paths with delta vertices for the fast-form tests.
+SceneDesc boxWithMirrorSphere() {
+    SceneDesc d = cornellBox(8, ggx());
+    d.bsdfs.push_back(makeConductor(Color(0.2f), Color(3.f), Color(1.f)));
+    d.meshes.push_back(smoothSphere(Vec3(-0.3f, -0.6f, 0.2f), 0.4f, 8, 12, int(d.bsdfs.size()) - 1));
+    return d;
+}
+}  // namespace
+
 // The path tracer's fast forms: its camera walk computes densities at emitter hits only
 // (WalkPdfs::EmitterHits) and its connections gather pdf entries 0..misReadLimit only. Both must
 // give exactly the weights of a full walk with a full gather, for NEE (s = 1) and emitter hits (s = 0).
 TEST_CASE("MIS: the path tracer's limited walk and gather give the full-gather weights", "[pt][mis]") {
-    SceneDesc d = cornellBox(8, ggx());
-    d.bsdfs.push_back(makeConductor(Color(0.2f), Color(3.f), Color(1.f)));  // a mirror: delta vertices
-    d.meshes.push_back(smoothSphere(Vec3(-0.3f, -0.6f, 0.2f), 0.4f, 8, 12, int(d.bsdfs.size()) - 1));
-    Scene scene(d);
+    Scene scene(boxWithMirrorSphere());
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> zFull, zFast;
     const MisConfig cfg{TechniqueSet::PathTracer};
@@ -394,10 +401,7 @@ LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream) {
 }  // namespace
 
 TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the gathered form", "[vcm][mis]") {
-    SceneDesc d = cornellBox(8, ggx());
-    d.bsdfs.push_back(makeConductor(Color(0.2f), Color(3.f), Color(1.f)));  // a mirror: delta vertices
-    d.meshes.push_back(smoothSphere(Vec3(-0.3f, -0.6f, 0.2f), 0.4f, 8, 12, int(d.bsdfs.size()) - 1));
-    Scene scene(d);
+    Scene scene(boxWithMirrorSphere());
     WalkStats ws;
     MisConfig cfg{TechniqueSet::Bidirectional, true, kPi * 0.05f * 0.05f, 256.f};
     LightPathStore store = lightPaths(scene, 256, 77);
