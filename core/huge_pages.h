@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdlib>
 #include <new>
+#include <vector>
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
@@ -38,5 +39,8 @@ struct HugePageAllocator {
     template <class U>
     bool operator==(const HugePageAllocator<U>&) const noexcept { return true; }
 };
+
+template <class T>
+using HugeVector = std::vector<T, HugePageAllocator<T>>;
 
 }  // namespace lt

@@ -35,7 +35,6 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
             }
             const PathVertex& prev = v[k - 1];
             Photon& ph = items_[k];
-            ph.p = y.p;
             ph.vertex = uint32_t(k);
             ph.wo = y.wo;
             ph.pdfFwd = y.pdfFwd.value;
@@ -65,10 +64,13 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
     for (size_t c = 1; c < cellStarts_.size(); ++c) cellStarts_[c] += cellStarts_[c - 1];
     photons_.resize(count);
     fill_.assign(cellStarts_.begin(), cellStarts_.end() - 1);
-    for (size_t k = 0; k < nv; ++k)
-        if (cellOf_[k] != UINT32_MAX) photons_[fill_[cellOf_[k]]++] = items_[k];
     positions_.resize(count);
-    for (size_t k = 0; k < count; ++k) positions_[k] = glm::vec4(photons_[k].p, 0.f);
+    for (size_t k = 0; k < nv; ++k) {
+        if (cellOf_[k] == UINT32_MAX) continue;
+        const uint32_t dst = fill_[cellOf_[k]]++;
+        photons_[dst] = items_[k];
+        positions_[dst] = glm::vec4(v[k].p, 0.f);
+    }
 }
 
 }  // namespace lt

@@ -21,8 +21,6 @@ public:
     size_t paths() const { return offset_.size(); }
     const PathVertex* path(size_t j) const { return vertices_.data() + offset_[j]; }
     int length(size_t j) const { return int(count_[j]); }
-    template <class T>
-    using HugeVector = std::vector<T, HugePageAllocator<T>>;
     const HugeVector<PathVertex>& vertices() const { return vertices_; }
     const HugeVector<VertexPdfs>& pdfs() const { return pdfs_; }
 
@@ -50,8 +48,8 @@ private:
 
 // What a merge needs of a light vertex y[i] (i >= 1) and of its predecessor y[i-1], stored
 // contiguously in cell order so a range query reads consecutive memory.
+// (Its position is in the grid's compact position array, the only place the query reads it.)
 struct Photon {
-    Vec3 p{0.f};
     uint32_t vertex = 0;      // index of y[i] in the store; y[0] is at vertex - depth
     Vec3 wo{0.f};             // towards y[i-1]
     float pdfFwd = 0.f;       // area density of y[i] under the light walk
@@ -153,11 +151,9 @@ private:
         return uint32_t((uint64_t(h) * uint64_t(tableSize)) >> 32);
     }
     uint32_t cellHash(const glm::ivec3& c) const { return cellHashMod(c, cellStarts_.size() - 1); }
-    template <class T>
-    using HugeVector = std::vector<T, HugePageAllocator<T>>;
     HugeVector<uint32_t> cellStarts_;
     HugeVector<Photon> photons_;
-    HugeVector<glm::vec4> positions_;            // photons_[k].p, compact (16 bytes), same order
+    HugeVector<glm::vec4> positions_;            // position of photons_[k] (16 bytes), same order
     std::vector<Photon> items_;                   // scratch, kept across iterations
     std::vector<uint32_t> cellOf_, fill_;         // scratch
     Vec3 lo_{0.f};

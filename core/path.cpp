@@ -170,10 +170,14 @@ int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVe
 
 namespace {
 
+// A density stored as 0 marks a vertex sampled through a delta lobe (or an entry a walk could not
+// fill); in the MIS ratios it counts as 1: the delta factor is common to every technique that can
+// sample such a path.
+double remapDensity(float p) { return p != 0.f ? double(p) : 1.0; }
+
 // sum over all techniques k able to sample the path of (n_k p_k / p_VC(base))^2.
 double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     const int n = pdfs.n;
-    auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
     auto validVC = [&](int k) {
         if (!allowsTechnique(cfg.set, k, n - k)) return false;
         if (k == 0) return pdfs.lightHittable;
@@ -195,24 +199,24 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     // ratio = p_VC(k) / p_VC(base); p_VC(k) / p_VC(k-1) = pL[k-1] / pC[k-1].
     double r = 1.0;
     for (int k = base; k <= std::max(kMax, base); ++k) {
-        if (k > base) r *= remap(pdfs.fromLight[k - 1]) / remap(pdfs.fromCamera[k - 1]);
+        if (k > base) r *= remapDensity(pdfs.fromLight[k - 1]) / remapDensity(pdfs.fromCamera[k - 1]);
         if (k == base + 2 && pdfs.aboveBase >= 0.0) {
             sum += r * r * pdfs.aboveBase;
             break;
         }
         if (validVC(k)) sum += r * r;
         if (k < n && validVM(k)) {
-            double q = r * vm * remap(pdfs.fromLight[k]);
+            double q = r * vm * remapDensity(pdfs.fromLight[k]);
             sum += q * q;
         }
     }
     if (pdfs.belowBase >= 0.0) return sum + pdfs.belowBase;
     r = 1.0;
     for (int k = base - 1; k >= std::min(kMin, base); --k) {
-        r *= remap(pdfs.fromCamera[k]) / remap(pdfs.fromLight[k]);
+        r *= remapDensity(pdfs.fromCamera[k]) / remapDensity(pdfs.fromLight[k]);
         if (validVC(k)) sum += r * r;
         if (validVM(k)) {
-            double q = r * vm * remap(pdfs.fromLight[k]);
+            double q = r * vm * remapDensity(pdfs.fromLight[k]);
             sum += q * q;
         }
     }
@@ -222,30 +226,28 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
 }  // namespace
 
 double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev) {
-    auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
     // Technique k = m (light vertices y[0..m-1], camera side from y[m]) and the merge at y[m].
     double own = 0.0;
     if (m == 0) own = lightHittable ? 1.0 : 0.0;
     else if (!y[m - 1].delta && !y[m].delta) own = 1.0;
     if (cfg.merging && m >= 1 && !y[m].delta) {
-        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remap(y[m].fwd);
+        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(y[m].fwd);
         own += q * q;
     }
     if (m == 0) return own;
-    double ratio = remap(y[m - 1].rev) / remap(y[m - 1].fwd);
+    double ratio = remapDensity(y[m - 1].rev) / remapDensity(y[m - 1].fwd);
     return own + ratio * ratio * prev;
 }
 
 double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double prev) {
-    auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
     // Technique with camera side z[0..m] (t' = m + 1; its light side ends at z[m+1]'s position),
     // and the merge at z[m] (not at the camera).
     double own = allowsTechnique(cfg.set, 1, m + 1) && !z[m + 1].delta && !z[m].delta ? 1.0 : 0.0;
     if (cfg.merging && m >= 1 && !z[m].delta) {
-        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remap(z[m].pdfRev.value);
+        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(z[m].pdfRev.value);
         own += q * q;
     }
-    double ratio = remap(z[m].pdfRev.value) / remap(z[m].pdfFwd.value);
+    double ratio = remapDensity(z[m].pdfRev.value) / remapDensity(z[m].pdfFwd.value);
     return own + ratio * ratio * prev;
 }
 
@@ -255,10 +257,7 @@ float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
 }
 
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
-    // A density stored as 0 marks a vertex sampled through a delta lobe; as in the connection
-    // ratios it is remapped to 1 (the delta factor is common to every technique that can merge here).
-    double pl = pdfs.fromLight[i] != 0.f ? double(pdfs.fromLight[i]) : 1.0;
-    double own = double(cfg.mergeArea) * double(cfg.lightPaths) * pl;
+    double own = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(pdfs.fromLight[i]);
     double sum = misSum(pdfs, i, cfg);
     return sum > 0.0 ? float(own * own / sum) : 0.f;
 }
@@ -441,8 +440,7 @@ bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, i
     }
     P.fromLight[i + 1] = convertDensity(ez.pdfRev, zv, z[t - 2]).value;
     if (!lightPdfs) {
-        auto remap = [](float p) { return p != 0.f ? double(p) : 1.0; };
-        double ratio = remap(P.fromCamera[i - 1]) / remap(P.fromLight[i - 1]);
+        double ratio = remapDensity(P.fromCamera[i - 1]) / remapDensity(P.fromLight[i - 1]);
         P.belowBase = ratio * ratio * ph.misLight;
     }
     return true;
