@@ -72,13 +72,6 @@ void embreeError(void*, RTCError code, const char* str) {
     fmt::print(stderr, "embree error {}: {}\n", int(code), str ? str : "");
 }
 
-float triangleArea(const MeshDesc& m, size_t tri) {
-    const Vec3& a = m.positions[m.indices[3 * tri]];
-    const Vec3& b = m.positions[m.indices[3 * tri + 1]];
-    const Vec3& c = m.positions[m.indices[3 * tri + 2]];
-    return 0.5f * glm::length(glm::cross(b - a, c - a));
-}
-
 }  // namespace
 
 Scene::Scene(const SceneDesc& desc) : desc_(desc) {
@@ -189,22 +182,23 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         int li = emitterToLight.at(m.emitter);
         Light& l = lights_[li];
         l.meshIndex = int(i);
+        // Each triangle ready for sampling, and its area for the choice between triangles.
         std::vector<float> areas(m.indices.size() / 3);
-        double total = 0;
-        for (size_t t = 0; t < areas.size(); ++t) total += (areas[t] = triangleArea(m, t));
-        l.area = float(total);
-        l.invArea = total > 0 ? float(1.0 / total) : 0.f;
-        meshTriDist_[i] = Distribution1D(areas);
-        meshLight_[i] = li;
         meshTris_[i].reserve(areas.size());
+        double total = 0;
         for (size_t t = 0; t < areas.size(); ++t) {
             const Vec3& a = m.positions[m.indices[3 * t]];
             const Vec3& b = m.positions[m.indices[3 * t + 1]];
             const Vec3& c = m.positions[m.indices[3 * t + 2]];
             Vec3 n = glm::cross(b - a, c - a);
             float len = glm::length(n);
+            total += (areas[t] = 0.5f * len);
             meshTris_[i].push_back({a, b - a, c - a, len > 0.f ? n / len : Vec3(0.f)});
         }
+        l.area = float(total);
+        l.invArea = total > 0 ? float(1.0 / total) : 0.f;
+        meshTriDist_[i] = Distribution1D(areas);
+        meshLight_[i] = li;
     }
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
         const SphereDesc& s = desc_.spheres[i];
