@@ -44,6 +44,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         PathVertex& v = path[n];
         SurfaceHit hit;
         ++stats.rays;
+        if (stats.log) stats.log->closest.push_back(ray), stats.log->closestDepth.push_back(prev.depth);
         if (!scene.intersect(ray, hit)) {
             if (mode == TransportMode::Radiance && !scene.infiniteLights().empty()) {
                 v = PathVertex{};
@@ -379,10 +380,13 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
                                                  : 1.f;
     Color contrib = a.beta * fa * (cosA * cosB / dist2) * eb.f * b.beta;
     if (isBlack(contrib)) return false;
-    ++stats.rays;
-    bool blocked = a.infinite ? scene.occludedInfinite(b.p, b.ng, wBA) : scene.occluded(b.p, b.ng, a.p, a.ng);
     // (for the camera b.ng is zero: the shadow ray starts exactly at the pinhole)
-    if (blocked) return false;
+    Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, a.p, a.ng);
+    if (shadow.tMax > 0.f) {
+        ++stats.rays;
+        if (stats.log) stats.log->shadow.push_back(shadow);
+        if (scene.occludedRay(shadow)) return false;
+    }
 
     // MIS pdfs: the path's own, with the four values at the connection recomputed.
     PathPdfs& P = c.pdfs;

@@ -11,6 +11,7 @@
 //   pdfRev: density under the walk in the other direction (filled when the next vertex is known).
 #pragma once
 #include <array>
+#include <vector>
 #include "bsdf/surface_bsdf.h"
 #include "core/rng.h"
 #include "core/scene.h"
@@ -56,8 +57,17 @@ inline AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& from, const P
     return AreaPdf(pdf.value * c / d2);
 }
 
+// The rays a walk or connection casts, logged when WalkStats::log is set (tools/raybench replays
+// them: a bare Embree loop over exactly the renderer's rays). Closest-hit rays with depth 0 are
+// camera rays when the walk started at the camera.
+struct RayLog {
+    std::vector<Ray> closest, shadow;
+    std::vector<uint16_t> closestDepth;  // segments before the ray (0: the walk's first ray)
+};
+
 struct WalkStats {
     uint64_t rays = 0;
+    RayLog* log = nullptr;  // usually null: one predictable branch per ray
 };
 
 // Which vertex densities a walk computes. All: pdfFwd and pdfRev of every vertex, re-evaluated at

@@ -313,19 +313,24 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     return true;
 }
 
-bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
+Ray Scene::shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
     Vec3 a = (n0 == Vec3(0.f)) ? p0 : offsetPoint(p0, n0, p1 - p0);
     Vec3 b = (n1 == Vec3(0.f)) ? p1 : offsetPoint(p1, n1, p0 - p1);
     Vec3 d = b - a;
     float len = glm::length(d);
-    if (!(len > 0.f)) return false;
-    return occludedRay(Ray{a, d / len, 0.f, len * (1.f - 1e-5f)});
+    if (!(len > 0.f)) return Ray{a, Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
+    return Ray{a, d / len, 0.f, len * (1.f - 1e-5f)};
 }
-
+Ray Scene::shadowRayInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
+    return (n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir);
+}
+bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
+    Ray r = shadowRay(p0, n0, p1, n1);
+    return r.tMax > 0.f && occludedRay(r);
+}
 bool Scene::occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
-    return occludedRay((n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir));
+    return occludedRay(shadowRayInfinite(p0, n0, dir));
 }
-
 bool Scene::occludedRay(const Ray& r) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);

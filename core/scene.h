@@ -42,6 +42,9 @@ public:
     // A ray towards infinity (direction dir) from a surface point.
     bool occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const;
     bool occludedRay(const Ray& r) const;
+    // The shadow rays `occluded` and `occludedInfinite` cast (tMax = 0: degenerate, nothing to cast).
+    Ray shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
+    Ray shadowRayInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const;
 
     // Ray leaving surface point p (geometric normal ng) in direction d, offset to the side of d.
     Ray spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const;

@@ -10,5 +10,8 @@ mesh=scenes/bench/displaced-sphere.ply
 for scene in scenes/cornell-box.xml scenes/bench/cornell-displaced-sphere.xml; do
   echo "== $scene"
   $B/render "$scene" -D res=512 --spp 64 --max-depth 8 --threads 2 --quiet -o out/bench/$(basename "$scene" .xml).exr
-  $B/raybench "$scene" -D res=512 --threads 2 --passes 8
+  # The yardstick: the path tracer's own rays (same settings), cast bare. The synthetic mix (one
+  # camera, bounce and shadow ray per pixel) is printed too, for comparison with earlier figures.
+  $B/raybench "$scene" -D res=512 --threads 2 --passes 8 --max-depth 8
+  $B/raybench "$scene" -D res=512 --threads 2 --passes 8 --mode synthetic
 done

@@ -1,8 +1,15 @@
-// raybench: a bare Embree ray-casting loop over the kinds of rays the renderer casts: camera rays,
-// diffuse bounce rays from the camera hits, and shadow rays from those hits towards light
-// samples. The rays are generated first (with the renderer's camera, offsets and light sampling);
-// only rtcIntersect1 / rtcOccluded1 over the stored rays is timed. Prints rays/s per kind and
-// overall: the bound the renderer's rays/s is compared with.
+// raybench: a bare Embree ray-casting loop, the bound the renderer's rays/s is compared with.
+//
+// Default mode (replay): the path tracer renders `--passes` samples per pixel with its ray log on
+// (WalkStats::log) and the very rays it cast (camera rays, bounce rays at every depth, shadow
+// rays, in the renderer's proportions) are then cast again with rtcIntersect1 / rtcOccluded1 and
+// nothing else. Only the casting is timed.
+//
+// Synthetic mode (--mode synthetic, the earlier yardstick): one camera ray, one diffuse bounce ray
+// from its hit and one shadow ray from that hit per pixel, generated with the renderer's camera,
+// offsets and light sampling.
+//
+// Prints rays/s per kind and overall.
 #include <CLI/CLI.hpp>
 #include <embree3/rtcore.h>
 #include <fmt/core.h>
@@ -12,6 +19,7 @@
 #include "core/loader.h"
 #include "core/rng.h"
 #include "core/scene.h"
+#include "integrators/integrator.h"
 
 using namespace lt;
 
@@ -46,30 +54,18 @@ double cast(RTCScene scene, std::vector<RTCRay>& rays, bool occlusion) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-    CLI::App app{"raybench: bare Embree ray casting of a scene's camera, bounce and shadow rays"};
-    std::string scenePath;
-    int threads = 2, passes = 4;
-    std::vector<std::string> defines;
-    app.add_option("scene", scenePath, "Scene file")->required();
-    app.add_option("--threads", threads, "Threads");
-    app.add_option("--passes", passes, "Passes over the image (one ray of each kind per pixel each)");
-    app.add_option("-D", defines, "name=value overrides")->take_all();
-    CLI11_PARSE(app, argc, argv);
-    std::unique_ptr<Scene> scene;
-    try {
-        scene = std::make_unique<Scene>(loadScene(scenePath, parseDefines(defines)));
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "error: {}\n", e.what());
-        return 2;
-    }
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-    const Camera& cam = scene->camera();
-    const size_t w = size_t(cam.width()), h = size_t(cam.height());
+struct Timings {
     double tCam = 0, tBounce = 0, tShadow = 0;
     size_t nCam = 0, nBounce = 0, nShadow = 0;
+};
+
+// One camera, one diffuse bounce and one shadow ray per pixel (the earlier yardstick).
+Timings synthetic(const Scene* scene, int passes) {
+    Timings T;
+    double &tCam = T.tCam, &tBounce = T.tBounce, &tShadow = T.tShadow;
+    size_t &nCam = T.nCam, &nBounce = T.nBounce, &nShadow = T.nShadow;
+    const Camera& cam = scene->camera();
+    const size_t w = size_t(cam.width()), h = size_t(cam.height());
     for (int pass = 0; pass < passes; ++pass) {
         std::vector<RTCRay> camRays(w * h), bounce, shadow;
         std::vector<SurfaceHit> hits(w * h);
@@ -102,11 +98,76 @@ int main(int argc, char** argv) {
         tShadow += cast(scene->embreeScene(), shadow, true);
         nCam += camRays.size(), nBounce += bounce.size(), nShadow += shadow.size();
     }
+    return T;
+}
+
+// The path tracer's own rays, logged while it renders, then cast bare.
+Timings replay(const Scene& scene, RenderSettings settings, int passes) {
+    Timings T;
+    settings.integrator = "pt";
+    auto integrator = makeIntegrator(settings);
+    const int w = scene.camera().width(), h = scene.camera().height();
+    for (int pass = 0; pass < passes; ++pass) {
+        Film film(w, h, FilterType::Box);
+        RayLog log;
+        WalkStats stats;
+        stats.log = &log;
+        integrator->renderTile(scene, film, uint32_t(pass), 0, 0, w, h, stats);  // untimed, one thread
+        std::vector<RTCRay> cam, bounce, shadow;
+        for (size_t i = 0; i < log.closest.size(); ++i)
+            (log.closestDepth[i] == 0 ? cam : bounce).push_back(toRtc(log.closest[i]));
+        for (const Ray& r : log.shadow) shadow.push_back(toRtc(r));
+        T.tCam += cast(scene.embreeScene(), cam, false);
+        T.tBounce += cast(scene.embreeScene(), bounce, false);
+        T.tShadow += cast(scene.embreeScene(), shadow, true);
+        T.nCam += cam.size(), T.nBounce += bounce.size(), T.nShadow += shadow.size();
+    }
+    return T;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"raybench: bare Embree ray casting of the renderer's rays (replayed) or of synthetic ones"};
+    std::string scenePath, mode = "replay";
+    int threads = 2, passes = 4, maxDepth = -2;
+    std::vector<std::string> defines;
+    app.add_option("scene", scenePath, "Scene file")->required();
+    app.add_option("--threads", threads, "Threads for casting");
+    app.add_option("--passes", passes, "Samples per pixel whose rays are cast (replay) / passes over the image (synthetic)");
+    app.add_option("--mode", mode, "replay (the path tracer's own rays) or synthetic (camera + one bounce + one shadow ray per pixel)")
+        ->check(CLI::IsMember({"replay", "synthetic"}));
+    app.add_option("--max-depth", maxDepth, "Replay: the path tracer's max depth (default: the scene's)");
+    app.add_option("-D", defines, "name=value overrides")->take_all();
+    CLI11_PARSE(app, argc, argv);
+    std::unique_ptr<Scene> scene;
+    try {
+        scene = std::make_unique<Scene>(loadScene(scenePath, parseDefines(defines)));
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "error: {}\n", e.what());
+        return 2;
+    }
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    Timings T;
+    if (mode == "replay") {
+        const SceneDesc& desc = scene->desc();
+        RenderSettings settings;
+        settings.seed = desc.seed;
+        settings.maxDepth = maxDepth >= -1 ? maxDepth : desc.integrator.maxDepth;
+        settings.rrDepth = desc.integrator.rrDepth;
+        settings.hideEmitters = desc.integrator.hideEmitters;
+        T = replay(*scene, settings, passes);
+    } else {
+        T = synthetic(scene.get(), passes);
+    }
+    const Camera& cam = scene->camera();
     auto rate = [](size_t n, double t) { return t > 0 ? double(n) / t / 1e6 : 0.0; };
-    fmt::print("scene: {} ({} triangles, {}x{}), {} threads\n", scenePath, scene->triangleCount(), w, h, threads);
-    fmt::print("camera rays:  {:8.2f} M rays/s\n", rate(nCam, tCam));
-    fmt::print("bounce rays:  {:8.2f} M rays/s\n", rate(nBounce, tBounce));
-    fmt::print("shadow rays:  {:8.2f} M rays/s\n", rate(nShadow, tShadow));
-    fmt::print("all rays:     {:8.2f} M rays/s\n", rate(nCam + nBounce + nShadow, tCam + tBounce + tShadow));
+    size_t n = T.nCam + T.nBounce + T.nShadow;
+    fmt::print("scene: {} ({} triangles, {}x{}), {} threads, mode {}\n", scenePath, scene->triangleCount(),
+               cam.width(), cam.height(), threads, mode);
+    fmt::print("camera rays:  {:8.2f} M rays/s ({:.1f}% of the rays)\n", rate(T.nCam, T.tCam), 100.0 * T.nCam / std::max<size_t>(n, 1));
+    fmt::print("bounce rays:  {:8.2f} M rays/s ({:.1f}%)\n", rate(T.nBounce, T.tBounce), 100.0 * T.nBounce / std::max<size_t>(n, 1));
+    fmt::print("shadow rays:  {:8.2f} M rays/s ({:.1f}%)\n", rate(T.nShadow, T.tShadow), 100.0 * T.nShadow / std::max<size_t>(n, 1));
+    fmt::print("all rays:     {:8.2f} M rays/s\n", rate(n, T.tCam + T.tBounce + T.tShadow));
     return 0;
 }
