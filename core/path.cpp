@@ -16,7 +16,8 @@ static void refreshPdfs(const Scene& scene, PathVertex* path, int i, TransportMo
             if (!prev.delta && prev.bxdf) {
                 BsdfEval e = prev.bsdf().eval(prev.wo, d, mode);
                 if (e.pdfFwd.value > 0.f) pdfFwd = e.pdfFwd;
-                if (i >= 2 && e.pdfRev.value > 0.f) path[i - 2].pdfRev = convertDensity(e.pdfRev, prev, path[i - 2]);
+                if (i >= 2 && e.pdfRev.value > 0.f)
+                    path[i - 2].pdfRev = convertDensity(e.pdfRev, path[i - 2], prev.wo, sqr(prev.segmentLength));
             }
             break;
         case VertexKind::Camera: {
@@ -83,7 +84,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         v.roughness = hit.roughness;
         if (allPdfs || v.light) {
             refreshPdfs(scene, path, n, mode, pdfFwd);
-            v.pdfFwd = convertDensity(pdfFwd, prev, v);
+            v.pdfFwd = convertDensity(pdfFwd, v, v.wo, sqr(backLen));
         } else {
             v.pdfFwd = AreaPdf(kNotComputed);
         }
@@ -102,7 +103,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
             v.delta = true;
             pdfFwd = pdfRev = SolidAnglePdf(0.f);
         }
-        if (allPdfs) prev.pdfRev = convertDensity(pdfRev, v, prev);
+        if (allPdfs) prev.pdfRev = convertDensity(pdfRev, prev, v.wo, sqr(v.segmentLength));
         beta *= bs.weight;
         if (v.depth >= rrDepth) {
             float q = std::min(0.95f, maxComp(beta));
@@ -282,12 +283,14 @@ void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs) {
     pdfs.lightHittable = s > 0 && y[0].light && y[0].light->isHittable();
 }
 
-// Area density at `to` of the emission of light endpoint `lv` travelling in direction travelDir.
-static AreaPdf emissionDensity(const Scene& scene, const PathVertex& lv, const Vec3& travelDir, const PathVertex& to) {
+// Area density at `to` of the emission of light endpoint `lv` travelling in direction travelDir
+// (unit; dist2: squared distance between the two).
+static AreaPdf emissionDensity(const Scene& scene, const PathVertex& lv, const Vec3& travelDir, const PathVertex& to,
+                               float dist2) {
     const Light& l = *lv.light;
     if (l.isInfinite())  // position on the scene's disk, projected onto the receiving surface
         return AreaPdf(l.pdfLePos(scene).value * (to.onSurface() ? std::abs(glm::dot(to.ng, travelDir)) : 1.f));
-    return convertDensity(l.pdfLeDir(lv.ng, travelDir), lv, to);
+    return convertDensity(l.pdfLeDir(lv.ng, travelDir), to, travelDir, dist2);
 }
 
 Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit) {
@@ -301,7 +304,8 @@ Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs,
     pdfs.fromLight[0] = sel * v.light->pdfLi(scene, z[t - 2].p, v.p, v.ng, -v.wo).value;
     pdfs.delta[0] = false;
     pdfs.lightHittable = true;
-    pdfs.fromLight[1] = emissionDensity(scene, v, v.wo, z[t - 2]).value;  // light travels along v.wo
+    // light travels along v.wo, over the segment that arrived at v
+    pdfs.fromLight[1] = emissionDensity(scene, v, v.wo, z[t - 2], sqr(v.segmentLength)).value;
     return v.beta * Le;
 }
 
@@ -345,10 +349,10 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
     if (a.kind == VertexKind::Surface && !a.connectible()) return false;
     if (toCamera && a.infinite) return false;
     Vec3 d = a.p - b.p;
-    float dist2 = glm::dot(d, d);
-    if (!(dist2 > 0.f)) return false;
-    Vec3 wBA = d / std::sqrt(dist2);
-    if (a.infinite) dist2 = 1.f;
+    const float abDist2 = glm::dot(d, d);  // the segment's squared length, for the densities
+    if (!(abDist2 > 0.f)) return false;
+    Vec3 wBA = d / std::sqrt(abDist2);
+    const float dist2 = a.infinite ? 1.f : abDist2;  // in the geometry term
 
     BsdfEval eb;
     float cosB;
@@ -393,15 +397,17 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
     P.belowBase = P.aboveBase = -1.0;
     gatherLightPdfs(y, s, P);
     gatherCameraPdfs(z, t, s, P, readLimit);
-    P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, b, a).value;
-    if (s >= 2) P.fromCamera[s - 2] = convertDensity(ea.pdfRev, a, y[s - 2]).value;
+    // The segments' directions and lengths are known: a-b here, and the walks' own segments
+    // arriving at a and b (wo, segmentLength).
+    P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, a, wBA, abDist2).value;
+    if (s >= 2) P.fromCamera[s - 2] = convertDensity(ea.pdfRev, y[s - 2], a.wo, sqr(a.segmentLength)).value;
     if (a.kind == VertexKind::Light) {
-        P.fromLight[s] = emissionDensity(scene, a, -wBA, b).value;
+        P.fromLight[s] = emissionDensity(scene, a, -wBA, b, abDist2).value;
         P.delta[s - 1] = false;
     } else {
-        P.fromLight[s] = convertDensity(ea.pdfFwd, a, b).value;
+        P.fromLight[s] = convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
     }
-    if (t >= 2) P.fromLight[s + 1] = convertDensity(eb.pdfRev, b, z[t - 2]).value;
+    if (t >= 2) P.fromLight[s + 1] = convertDensity(eb.pdfRev, z[t - 2], b.wo, sqr(b.segmentLength)).value;
     c.contribution = contrib;
     return true;
 }

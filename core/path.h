@@ -65,6 +65,15 @@ struct RayLog {
     std::vector<uint16_t> closestDepth;  // segments before the ray (0: the walk's first ray)
 };
 
+// The same, with the unit direction between the two vertices and their squared distance already
+// known (connections compute them once): the cosine at `to` is |to.ng . dir|.
+inline AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& to, const Vec3& dir, float dist2) {
+    if (to.infinite) return AreaPdf(pdf.value);
+    if (!(dist2 > 0.f)) return AreaPdf(0.f);
+    float c = to.onSurface() ? std::abs(glm::dot(to.ng, dir)) : 1.f;
+    return AreaPdf(pdf.value * c / dist2);
+}
+
 struct WalkStats {
     uint64_t rays = 0;
     RayLog* log = nullptr;  // usually null: one predictable branch per ray
