@@ -178,7 +178,7 @@ namespace {
 double remapDensity(float p) { return p != 0.f ? double(p) : 1.0; }
 
 // sum over all techniques k able to sample the path of (n_k p_k / p_VC(base))^2.
-double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
+double misSumGeneral(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     const int n = pdfs.n;
     auto validVC = [&](int k) {
         if (!allowsTechnique(cfg.set, k, n - k)) return false;
@@ -225,7 +225,30 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     return sum;
 }
 
+// The same sum for the path tracer's two techniques (s = 0: emitter hit, s = 1: NEE), which
+// compare only x_0's two densities: the terms misSumGeneral adds for k = 0 and k = 1, in closed form.
+double misSumPathTracer(const PathPdfs& pdfs, int base) {
+    const int n = pdfs.n;
+    const bool valid0 = n >= 2 && pdfs.lightHittable;
+    const bool valid1 = n >= 3 && !pdfs.delta[0] && !pdfs.delta[1];
+    const double r = remapDensity(pdfs.fromLight[0]) / remapDensity(pdfs.fromCamera[0]);  // p_1 / p_0
+    if (base == 0) return (valid0 ? 1.0 : 0.0) + (valid1 ? r * r : 0.0);
+    return (valid1 ? 1.0 : 0.0) + (valid0 ? 1.0 / (r * r) : 0.0);
+}
+
+double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
+    if (cfg.set == TechniqueSet::PathTracer && !cfg.merging && base <= 1 && pdfs.belowBase < 0.0 &&
+        pdfs.aboveBase < 0.0)
+        return misSumPathTracer(pdfs, base);
+    return misSumGeneral(pdfs, base, cfg);
+}
+
 }  // namespace
+
+float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
+    double sum = misSumGeneral(pdfs, s, cfg);
+    return sum > 0.0 ? float(1.0 / sum) : 0.f;
+}
 
 double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev) {
     // Technique k = m (light vertices y[0..m-1], camera side from y[m]) and the merge at y[m].

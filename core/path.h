@@ -155,6 +155,9 @@ float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 // Weight of the merge technique at x_i.
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg);
 inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) { return misWeight(pdfs, s, MisConfig{set}); }
+// misWeight with the plain sum over techniques always (misWeight takes a closed form for the path
+// tracer's two techniques); for the tests that check the fast forms against the plain one.
+float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 
 // The highest pdf-array index the MIS sum of `cfg` can read. The path tracer's two techniques
 // (s = 0 and s = 1, no merging) compare only x_0's two densities and read delta[0..1], so its

@@ -278,6 +278,35 @@ SceneDesc boxWithMirrorSphere() {
 }
 }  // namespace
 
+
+// misWeight takes a closed form for the path tracer's two techniques; it must equal the plain sum
+// over techniques (misWeightGeneral) for every path length, delta pattern, hittability and
+// density (zero densities, i.e. delta vertices, included).
+TEST_CASE("MIS: the path tracer's closed-form weights equal the plain sum", "[pt][mis]") {
+    Rng rng(5, 9);
+    const MisConfig cfg{TechniqueSet::PathTracer};
+    int checked = 0, nonTrivial = 0;
+    for (int trial = 0; trial < 20000; ++trial) {
+        PathPdfs p;
+        p.n = 2 + int(rng.uniform() * 8.f);
+        for (int i = 0; i < p.n; ++i) {
+            // densities over 12 decades, sometimes 0 (a delta vertex's stored density)
+            p.fromLight[i] = rng.uniform() < 0.1f ? 0.f : std::pow(10.f, 12.f * rng.uniform() - 6.f);
+            p.fromCamera[i] = rng.uniform() < 0.1f ? 0.f : std::pow(10.f, 12.f * rng.uniform() - 6.f);
+            p.delta[i] = rng.uniform() < 0.2f;
+        }
+        p.lightHittable = rng.uniform() < 0.7f;
+        for (int s = 0; s <= 1; ++s) {
+            float fast = misWeight(p, s, cfg), plain = misWeightGeneral(p, s, cfg);
+            CHECK(fast == Approx(plain).epsilon(1e-6).margin(1e-30));
+            ++checked;
+            nonTrivial += plain > 0.f && plain < 1.f;
+        }
+    }
+    CHECK(checked == 40000);
+    CHECK(nonTrivial > 10000);  // most cases compare two valid techniques, not just 0 or 1
+}
+
 // The path tracer's fast forms: its camera walk computes densities at emitter hits only
 // (WalkPdfs::EmitterHits) and its connections gather pdf entries 0..misReadLimit only. Both must
 // give exactly the weights of a full walk with a full gather, for NEE (s = 1) and emitter hits (s = 0).
