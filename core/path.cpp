@@ -341,15 +341,25 @@ bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVerte
     float sel = scene.lightDistribution().probability(li);
     LightSampleLi ls = l.sampleLi(scene, refP, u);
     if (!(ls.pdfPos.value > 0.f) || !(sel > 0.f) || isBlack(ls.value)) return false;
-    out = PathVertex{};
+    // Every field is written (no default construction first: this is called per camera vertex).
     out.kind = VertexKind::Light;
     out.p = ls.p;
     out.ng = l.type == LightType::Area ? ls.n : Vec3(0.f);
+    out.shading = Frame();
+    out.wo = Vec3(0.f);
+    out.bxdf = nullptr;
     out.light = &l;
-    out.infinite = l.isInfinite();
     out.beta = Color(1.f / (sel * ls.pdfPos.value));
     out.pdfFwd = AreaPdf(sel * ls.pdfPos.value);
+    out.pdfRev = AreaPdf(0.f);
+    out.lobe = kNone;
+    out.delta = false;
+    out.infinite = l.isInfinite();
+    out.deltaBsdf = false;
+    out.depth = 0;
     out.roughness = 1.f;
+    out.segmentLength = 0.f;
+    out.pathLength = 0.f;
     return true;
 }
 

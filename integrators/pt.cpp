@@ -38,6 +38,8 @@ public:
         int nz = cameraWalk(scene, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats, WalkPdfs::EmitterHits);
         Color L(0.f);
         PathPdfs pdfs;
+        PathVertex y;     // the light vertex of each NEE connection (sampleLightVertex writes every field)
+        Connection conn;  // reused: connect writes what it returns
         const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
         for (int t = 2; t <= nz; ++t) {
             const PathVertex& v = z[t - 1];
@@ -50,8 +52,6 @@ public:
             }
             // s = 1: next-event estimation (t segments).
             if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && v.connectible()) {
-                PathVertex y;
-                Connection conn;
                 if (sampleLightVertex(scene, v.p, rng, y) && connect(scene, &y, 1, z, t, conn, stats, readLimit))
                     L += conn.contribution *
                          (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
