@@ -15,12 +15,12 @@ LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& 
     LightSampleLi s;
     switch (type) {
         case LightType::Area: {
+            // Only the side matters for the one-sided emission: no normalised direction needed
+            // (the connection computes the unit direction and the distance once).
             scene.sampleAreaLight(*this, u, s.p, s.n);
-            Vec3 d = s.p - refP;
-            s.dist = glm::length(d);
-            if (!(s.dist > 0.f)) { s = LightSampleLi{}; return s; }  // (one named return object: NRVO, no struct copy)
-            s.wi = d * (1.f / s.dist);
-            s.value = Le(s.n, -s.wi);
+            Vec3 d = refP - s.p;
+            if (!(glm::dot(d, d) > 0.f)) { s = LightSampleLi{}; return s; }  // (one named return object: NRVO, no struct copy)
+            s.value = glm::dot(s.n, d) > 0.f ? value : Color(0.f);
             s.pdfPos = AreaPdf(invArea);
             return s;
         }
@@ -28,16 +28,14 @@ LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& 
         case LightType::Spot: {
             s.p = position;
             Vec3 d = s.p - refP;
-            s.dist = glm::length(d);
-            if (!(s.dist > 0.f)) { s = LightSampleLi{}; return s; }  // (one named return object: NRVO, no struct copy)
-            s.wi = d / s.dist;
-            s.value = type == LightType::Spot ? value * spotFalloff(-s.wi) : value;
+            float dist = glm::length(d);
+            if (!(dist > 0.f)) { s = LightSampleLi{}; return s; }  // (one named return object: NRVO, no struct copy)
+            s.value = type == LightType::Spot ? value * spotFalloff(-d / dist) : value;
             s.pdfPos = AreaPdf(1.f);
             return s;
         }
         case LightType::Directional: {
             s.wi = -direction;
-            s.dist = kInf;
             s.p = refP + s.wi * (2.f * scene.boundsRadius());
             s.value = value;
             s.pdfPos = AreaPdf(1.f);
@@ -45,7 +43,6 @@ LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& 
         }
         case LightType::Constant: {
             s.wi = sampleUniformSphere(u);
-            s.dist = kInf;
             s.p = refP + s.wi * (2.f * scene.boundsRadius());
             s.value = value;
             s.pdfPos = AreaPdf(kUniformSpherePdf);

@@ -19,8 +19,8 @@ enum class LightType { Area, Point, Spot, Directional, Constant };
 struct LightSampleLi {
     Vec3 p{0.f};        // position (for infinite lights: a far point, refP + wi * 2R)
     Vec3 n{0.f};        // surface normal (area lights), zero otherwise
-    Vec3 wi{0.f};       // unit direction from the reference point to the light
-    float dist = 0.f;   // distance (infinite lights: kInf)
+    Vec3 wi{0.f};       // lights at infinity: unit direction from the reference point to the light
+                        // (finite lights: zero; the connection derives direction and distance from p)
     Color value{0.f};   // radiance (area, constant), intensity (point, spot) or irradiance (directional)
     AreaPdf pdfPos;     // density of the point (area; solid angle for infinite lights; 1 for delta positions)
 };
