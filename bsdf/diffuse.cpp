@@ -8,26 +8,29 @@ namespace {
 
 class DiffuseBxdf final : public Bxdf {
 public:
-    explicit DiffuseBxdf(const Color& r) : r_(r) {}
+    explicit DiffuseBxdf(const Color& r) : r_(r), f_(r * kInvPi) {}
 
+    // The cosines are read once into locals: for all the compiler knows the output may alias wo,
+    // so reading wo.z after storing to it would be a reload (and a repeated > 0 test).
     BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode, const Roughness*) const override {
-        BsdfEval e;
-        if (!(wo.z > 0.f) || !(wi.z > 0.f)) return e;
-        e.f = r_ * kInvPi;
-        e.pdfFwd = SolidAnglePdf(cosineHemispherePdf(wi.z));
-        e.pdfRev = SolidAnglePdf(cosineHemispherePdf(wo.z));
-        return e;
+        const float cosO = wo.z, cosI = wi.z;
+        if (!(cosO > 0.f) || !(cosI > 0.f)) return BsdfEval{};
+        // cosineHemispherePdf, cos > 0 known
+        return BsdfEval{f_, SolidAnglePdf(cosI * kInvPi), SolidAnglePdf(cosO * kInvPi)};
     }
 
     bool sample(const Vec3& wo, float, const Vec2& u, TransportMode, BsdfSample& out,
                 const Roughness*) const override {
-        if (!(wo.z > 0.f)) return false;
+        const float cosO = wo.z;
+        if (!(cosO > 0.f)) return false;
         const Vec3 wi = sampleCosineHemisphere(u);
         if (!(wi.z > 0.f)) return false;
-        out.wi = wi;
+        out.wi.x = wi.x;  // per component: a Vec3 copy goes through the stack
+        out.wi.y = wi.y;
+        out.wi.z = wi.z;
         out.weight = r_;  // (R/pi) cos / (cos/pi)
-        out.pdfFwd = SolidAnglePdf(cosineHemispherePdf(wi.z));
-        out.pdfRev = SolidAnglePdf(cosineHemispherePdf(wo.z));
+        out.pdfFwd = SolidAnglePdf(wi.z * kInvPi);  // cosineHemispherePdf, cos > 0 known
+        out.pdfRev = SolidAnglePdf(cosO * kInvPi);
         out.lobe = kReflection | kDiffuse;
         out.eta = 1.f;
         return true;
@@ -39,6 +42,7 @@ public:
 
 private:
     Color r_;
+    Color f_;  // r_ / pi, the value of f
 };
 
 // Mitsuba's twosided: the inner BSDF seen from both sides. When wo is below the surface both

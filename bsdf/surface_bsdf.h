@@ -18,21 +18,42 @@ public:
     SurfaceBsdf(const Bxdf*, Frame&&, const Vec3&) = delete;  // would dangle
     SurfaceBsdf(const Bxdf*, const Frame&, Vec3&&) = delete;
 
+    // Each direction's dot products with ng and the shading normal are computed once and serve the
+    // consistency test, the local z (toLocal's n-dot) and the adjoint correction (the same
+    // expressions as before, so the same floats). The correction is computed before the virtual
+    // call, so that only it has to survive the call (all xmm registers are caller-saved), and it
+    // is applied unconditionally: it is 1 in Radiance mode and x * 1 == x exactly.
     BsdfEval eval(const Vec3& woW, const Vec3& wiW, TransportMode mode, const Roughness* rough = nullptr) const {
-        BsdfEval e;
-        if (!consistent(woW) || !consistent(wiW)) return e;
-        e = bxdf_->eval(frame_.toLocal(woW), frame_.toLocal(wiW), mode, rough);
-        if (mode == TransportMode::Importance && !gTestDisableAdjointCorrection) e.f *= adjointCorrection(woW, wiW);
+        BsdfEval e;  // the one returned object (NRVO: the Bxdf writes straight into the caller's)
+        const Vec3 n = frame_.n, ng = ng_;
+        const float woN = glm::dot(woW, n), woG = glm::dot(woW, ng);
+        const float wiN = glm::dot(wiW, n), wiG = glm::dot(wiW, ng);
+        if (!consistent(woG, woN) || !consistent(wiG, wiN)) return e;
+        const float corr = mode == TransportMode::Importance && !gTestDisableAdjointCorrection
+                               ? adjointCorrection(woN, woG, wiN, wiG)
+                               : 1.f;
+        const Vec3 wo(glm::dot(woW, frame_.s), glm::dot(woW, frame_.t), woN);
+        const Vec3 wi(glm::dot(wiW, frame_.s), glm::dot(wiW, frame_.t), wiN);
+        e = bxdf_->eval(wo, wi, mode, rough);
+        e.f *= corr;
         return e;
     }
 
     bool sample(const Vec3& woW, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& s,
                 const Roughness* rough = nullptr) const {
-        if (!consistent(woW)) return false;
-        if (!bxdf_->sample(frame_.toLocal(woW), uLobe, u, mode, s, rough)) return false;
-        s.wi = frame_.toWorld(s.wi);
-        if (!consistent(s.wi)) return false;
-        if (mode == TransportMode::Importance && !gTestDisableAdjointCorrection) s.weight *= adjointCorrection(woW, s.wi);
+        const float woN = glm::dot(woW, frame_.n), woG = glm::dot(woW, ng_);
+        if (!consistent(woG, woN)) return false;
+        const Vec3 wo(glm::dot(woW, frame_.s), glm::dot(woW, frame_.t), woN);
+        if (!bxdf_->sample(wo, uLobe, u, mode, s, rough)) return false;
+        const Frame& f = frame_;
+        const Vec3 wi = f.toWorld(s.wi);
+        s.wi.x = wi.x;  // per component: a Vec3 copy goes through the stack
+        s.wi.y = wi.y;
+        s.wi.z = wi.z;
+        const float wiN = glm::dot(wi, f.n), wiG = glm::dot(wi, ng_);
+        if (!consistent(wiG, wiN)) return false;
+        if (mode == TransportMode::Importance && !gTestDisableAdjointCorrection)
+            s.weight *= adjointCorrection(woN, woG, wiN, wiG);
         return true;
     }
 
@@ -41,11 +62,12 @@ public:
     const Vec3& ng() const { return ng_; }
 
 private:
-    // The geometric and shading normals must agree on which side w is.
-    bool consistent(const Vec3& w) const { return glm::dot(w, ng_) * glm::dot(w, frame_.n) > 0.f; }
-    float adjointCorrection(const Vec3& wo, const Vec3& wi) const {
-        float num = std::abs(glm::dot(wo, frame_.n) * glm::dot(wi, ng_));
-        float den = std::abs(glm::dot(wo, ng_) * glm::dot(wi, frame_.n));
+    // The geometric and shading normals must agree on which side w is (arguments: w.ng, w.n).
+    static bool consistent(float wG, float wN) { return wG * wN > 0.f; }
+    // |wo.n wi.ng| / |wo.ng wi.n|, from the dot products.
+    static float adjointCorrection(float woN, float woG, float wiN, float wiG) {
+        float num = std::abs(woN * wiG);
+        float den = std::abs(woG * wiN);
         return den > 0.f ? num / den : 0.f;
     }
     const Bxdf* bxdf_;

@@ -5,13 +5,31 @@
 
 namespace lt {
 
+// sin and cos of (pi/4) t for t in [-1, 1], without libm's sincosf (a call plus range reduction
+// that this range does not need). Chebyshev-fitted polynomials in t^2 (fitted in 40-digit
+// arithmetic); max abs error in float 9e-8 for sin, 8e-8 for cos (libm's sinf/cosf of the rounded
+// float angle: 7e-8). cos(0) = 1 and sin(0) = 0 exactly. Tested in tests/test_sampling_fast.cpp.
+struct SinCos {
+    float sin, cos;
+};
+inline SinCos sinCosQuarterPi(float t) {
+    const float y = t * t;
+    return {t * (0.78539816097661834f +
+                 y * (-0.080745434708101474f + y * (0.0024900068014923567f + y * -3.5954290725110749e-5f))),
+            1.f + y * (-0.30842513734355484f +
+                       y * (0.015854338147319281f + y * (-0.00032596138034687451f + y * 3.5419527281377598e-6f)))};
+}
+// Shirley-Chiu concentric map. With the larger |coordinate| as the radius r, the angle is (pi/4)t
+// from the x axis, t = o.y / o.x, when |o.x| > |o.y|; else pi/2 - (pi/4)t from it, t = o.x / o.y
+// (cos and sin swap). r == 0 only at the centre (then both coordinates are 0).
 inline Vec2 sampleConcentricDisk(const Vec2& u) {
-    Vec2 o = 2.f * u - Vec2(1.f);
-    if (o.x == 0 && o.y == 0) return Vec2(0.f);
-    float r, theta;
-    if (std::abs(o.x) > std::abs(o.y)) { r = o.x; theta = (kPi / 4) * (o.y / o.x); }
-    else { r = o.y; theta = kPi / 2 - (kPi / 4) * (o.x / o.y); }
-    return r * Vec2(std::cos(theta), std::sin(theta));
+    const Vec2 o = 2.f * u - Vec2(1.f);
+    const bool xMajor = std::abs(o.x) > std::abs(o.y);
+    const float r = xMajor ? o.x : o.y;
+    if (r == 0.f) return Vec2(0.f);
+    const SinCos sc = sinCosQuarterPi((xMajor ? o.y : o.x) / r);
+    const float a = r * sc.cos, b = r * sc.sin;
+    return xMajor ? Vec2(a, b) : Vec2(b, a);
 }
 inline Vec3 sampleCosineHemisphere(const Vec2& u) {
     Vec2 d = sampleConcentricDisk(u);
