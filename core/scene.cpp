@@ -4,6 +4,8 @@
 #include <bit>
 #include <cstddef>
 #include <stdexcept>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace lt {
 
@@ -115,26 +117,29 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     size_t withNormals = 0;
     for (const MeshDesc& m : desc_.meshes)
         if (!m.normals.empty()) withNormals += m.indices.size() / 3;
-    tris_.reserve(triangleCount_ + 1);
-    triNormals_.reserve(withNormals + 1);
+    tris_.resize(triangleCount_ + 1);
+    triNormals_.resize(withNormals + 1);
     std::vector<size_t> triStart(desc_.meshes.size()), normalStart(desc_.meshes.size(), size_t(-1));
-    for (size_t i = 0; i < desc_.meshes.size(); ++i) {
+    for (size_t i = 0, nTri = 0, nNormal = 0; i < desc_.meshes.size(); ++i) {
         const MeshDesc& m = desc_.meshes[i];
         const size_t nt = m.indices.size() / 3;
-        triStart[i] = tris_.size();
-        for (size_t t = 0; t < nt; ++t) {
-            const Vec3 &p0 = m.positions[m.indices[3 * t]], &p1 = m.positions[m.indices[3 * t + 1]],
-                       &p2 = m.positions[m.indices[3 * t + 2]];
-            tris_.push_back({p0, p1, p2, glm::normalize(glm::cross(p1 - p0, p2 - p0))});
-        }
-        if (m.normals.empty()) continue;
-        normalStart[i] = triNormals_.size();
-        for (size_t t = 0; t < nt; ++t)
-            triNormals_.push_back(
-                {m.normals[m.indices[3 * t]], m.normals[m.indices[3 * t + 1]], m.normals[m.indices[3 * t + 2]]});
+        triStart[i] = nTri;
+        nTri += nt;
+        if (!m.normals.empty()) normalStart[i] = nNormal, nNormal += nt;
+        const Vec3* pos = m.positions.data();
+        const Vec3* nrm = m.normals.empty() ? nullptr : m.normals.data();
+        const uint32_t* idx = m.indices.data();
+        MeshTri* tris = tris_.data() + triStart[i];
+        MeshTriNormals* tn = nrm ? triNormals_.data() + normalStart[i] : nullptr;
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, nt, 4096), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t t = r.begin(); t != r.end(); ++t) {
+                const uint32_t i0 = idx[3 * t], i1 = idx[3 * t + 1], i2 = idx[3 * t + 2];
+                const Vec3 p0 = pos[i0], p1 = pos[i1], p2 = pos[i2];
+                tris[t] = {p0, p1, p2, glm::normalize(glm::cross(p1 - p0, p2 - p0))};
+                if (tn) tn[t] = {nrm[i0], nrm[i1], nrm[i2]};
+            }
+        });
     }
-    tris_.push_back({});
-    triNormals_.push_back({});
     for (GeomInfo& gi : geoms_) {
         if (gi.mesh < 0) continue;
         gi.tris = tris_.data() + triStart[gi.mesh];
@@ -269,11 +274,16 @@ float Scene::lightSelectionProb(const Light* l) const {
 // the store buffer (a stall of about a dozen cycles per ray, measured with perf).
 static void fillRay(RTCRay& r, const Ray& ray) {
     static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 && offsetof(RTCRay, flags) == 44);
+    static_assert(offsetof(Ray, d) == 12 && offsetof(Ray, tMin) == 24 && offsetof(Ray, tMax) == 28 && sizeof(Ray) == 32);
     auto* f = reinterpret_cast<float*>(&r);
-    _mm_storeu_ps(f, _mm_setr_ps(ray.o.x, ray.o.y, ray.o.z, ray.tMin));
-    _mm_storeu_ps(f + 4, _mm_setr_ps(ray.d.x, ray.d.y, ray.d.z, 0.f));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(f + 8),  // tfar, mask, id, flags
-                     _mm_setr_epi32(std::bit_cast<int>(ray.tMax), -1, 0, 0));
+    const float* src = &ray.o.x;
+    const __m128 od = _mm_loadu_ps(src);               // o.x o.y o.z d.x
+    const __m128 dt = _mm_loadu_ps(src + 3);           // d.x d.y d.z tMin
+    const __m128 zt = _mm_shuffle_ps(od, dt, _MM_SHUFFLE(3, 3, 2, 2));  // o.z o.z tMin tMin
+    _mm_storeu_ps(f, _mm_shuffle_ps(od, zt, _MM_SHUFFLE(2, 0, 1, 0)));   // o.x o.y o.z tMin
+    _mm_storeu_ps(f + 4, _mm_and_ps(dt, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0))));  // d, time 0
+    _mm_storeu_ps(f + 8, _mm_or_ps(_mm_load_ss(src + 7),  // tfar, mask, id, flags
+                                   _mm_castsi128_ps(_mm_setr_epi32(0, -1, 0, 0))));
 }
 
 namespace {
@@ -355,6 +365,35 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     _mm_storeu_ps(&hit.ng.x, ng);
     hit.shading = Frame(toVec3(ns));
     return true;
+}
+
+namespace {
+// A Vec3 that may be the last thing in its allocation: 8 + 4 bytes (w = 0).
+inline __m128 load3Exact(const Vec3& v) {
+    return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(&v.x))), _mm_load_ss(&v.z));
+}
+inline bool isZero3(__m128 v) { return (_mm_movemask_ps(_mm_cmpeq_ps(v, _mm_setzero_ps())) & 7) == 7; }
+inline __m128 abs3(__m128 v) { return _mm_andnot_ps(_mm_set1_ps(-0.f), v); }
+}  // namespace
+
+// offsetPoint on SSE lanes, the same floats: eps = 8e-6 maxAbs(p) + offsetScale_, p +- eps ng.
+static inline __m128 offsetPoint4(__m128 p, __m128 ng, __m128 towards, float offsetScale) {
+    const __m128 a = abs3(p);
+    // std::max(x, std::max(y, z)) as maxAbs computes it: (b < a) ? a : b is maxss(a, b) on non-NaN.
+    const float m = _mm_cvtss_f32(_mm_max_ss(_mm_max_ss(_mm_movehl_ps(a, a), _mm_shuffle_ps(a, a, 1)), a));
+    float eps = 8e-6f * m + offsetScale;
+    if (!(dot3(towards, ng) >= 0.f)) eps = -eps;
+    return _mm_add_ps(p, _mm_mul_ps(_mm_set1_ps(eps), ng));
+}
+
+Ray Scene::shadowRay(const Vec3& p0v, const Vec3& n0v, const Vec3& p1v, const Vec3& n1v) const {
+    const __m128 p0 = load3Exact(p0v), n0 = load3Exact(n0v), p1 = load3Exact(p1v), n1 = load3Exact(n1v);
+    const __m128 a = isZero3(n0) ? p0 : offsetPoint4(p0, n0, _mm_sub_ps(p1, p0), offsetScale_);
+    const __m128 b = isZero3(n1) ? p1 : offsetPoint4(p1, n1, _mm_sub_ps(p0, p1), offsetScale_);
+    const __m128 d = _mm_sub_ps(b, a);
+    const float len = std::sqrt(dot3(d, d));
+    if (!(len > 0.f)) return Ray{toVec3(a), Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
+    return Ray{toVec3(a), toVec3(_mm_div_ps(d, _mm_set1_ps(len))), 0.f, len * (1.f - 1e-5f)};
 }
 
 bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {

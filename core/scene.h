@@ -44,14 +44,7 @@ public:
     bool occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const;
     bool occludedRay(const Ray& r) const;
     // The shadow rays `occluded` and `occludedInfinite` cast (tMax = 0: degenerate, nothing to cast).
-    Ray shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
-        Vec3 a = (n0 == Vec3(0.f)) ? p0 : offsetPoint(p0, n0, p1 - p0);
-        Vec3 b = (n1 == Vec3(0.f)) ? p1 : offsetPoint(p1, n1, p0 - p1);
-        Vec3 d = b - a;
-        float len = glm::length(d);
-        if (!(len > 0.f)) return Ray{a, Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
-        return Ray{a, d / len, 0.f, len * (1.f - 1e-5f)};
-    }
+    Ray shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
     Ray shadowRayInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
         return (n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir);
     }
