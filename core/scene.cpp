@@ -4,6 +4,8 @@
 #include <bit>
 #include <cstddef>
 #include <stdexcept>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace lt {
 
@@ -107,11 +109,41 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         if (geoms_.size() <= id) geoms_.resize(id + 1);
         GeomInfo& gi = geoms_[id];
         gi.mesh = int(i);
-        gi.positions = m.positions.data();
-        gi.normals = m.normals.empty() ? nullptr : m.normals.data();
         gi.uvs = m.uvs.empty() ? nullptr : m.uvs.data();
         gi.indices = m.indices.data();
         triangleCount_ += nt;
+    }
+    // The hit records (pointers set once the arrays no longer move).
+    size_t withNormals = 0;
+    for (const MeshDesc& m : desc_.meshes)
+        if (!m.normals.empty()) withNormals += m.indices.size() / 3;
+    tris_.resize(triangleCount_ + 1);
+    triNormals_.resize(withNormals + 1);
+    std::vector<size_t> triStart(desc_.meshes.size()), normalStart(desc_.meshes.size(), size_t(-1));
+    for (size_t i = 0, nTri = 0, nNormal = 0; i < desc_.meshes.size(); ++i) {
+        const MeshDesc& m = desc_.meshes[i];
+        const size_t nt = m.indices.size() / 3;
+        triStart[i] = nTri;
+        nTri += nt;
+        if (!m.normals.empty()) normalStart[i] = nNormal, nNormal += nt;
+        const Vec3* pos = m.positions.data();
+        const Vec3* nrm = m.normals.empty() ? nullptr : m.normals.data();
+        const uint32_t* idx = m.indices.data();
+        MeshTri* tris = tris_.data() + triStart[i];
+        MeshTriNormals* tn = nrm ? triNormals_.data() + normalStart[i] : nullptr;
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, nt, 4096), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t t = r.begin(); t != r.end(); ++t) {
+                const uint32_t i0 = idx[3 * t], i1 = idx[3 * t + 1], i2 = idx[3 * t + 2];
+                const Vec3 p0 = pos[i0], p1 = pos[i1], p2 = pos[i2];
+                tris[t] = {p0, p1, p2, glm::normalize(glm::cross(p1 - p0, p2 - p0))};
+                if (tn) tn[t] = {nrm[i0], nrm[i1], nrm[i2]};
+            }
+        });
+    }
+    for (GeomInfo& gi : geoms_) {
+        if (gi.mesh < 0) continue;
+        gi.tris = tris_.data() + triStart[gi.mesh];
+        gi.normals = normalStart[gi.mesh] == size_t(-1) ? nullptr : triNormals_.data() + normalStart[gi.mesh];
     }
     spheres_.reserve(desc_.spheres.size());
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
@@ -237,33 +269,44 @@ float Scene::lightSelectionProb(const Light* l) const {
     return lightDist_.probability(size_t(l - lights_.data()));
 }
 
-Vec3 Scene::offsetPoint(const Vec3& p, const Vec3& ng, const Vec3& towards) const {
-    // Float error of a hit point is proportional to its coordinates' magnitude; the second term
-    // covers points near the origin. Both scale with the scene.
-    float eps = 8e-6f * maxAbs(p) + offsetScale_;
-    return glm::dot(towards, ng) >= 0.f ? p + eps * ng : p - eps * ng;
-}
-
-Ray Scene::spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const {
-    Ray r;
-    r.o = offsetPoint(p, ng, d);
-    r.d = d;
-    r.tMin = 0.f;
-    r.tMax = kInf;
-    return r;
-}
-
 // Fills an Embree ray with whole 16-byte stores: Embree loads (org, tnear) and (dir, time) as
 // 16-byte vectors, and a vector load from four separate scalar stores cannot be forwarded from
 // the store buffer (a stall of about a dozen cycles per ray, measured with perf).
 static void fillRay(RTCRay& r, const Ray& ray) {
     static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 && offsetof(RTCRay, flags) == 44);
+    static_assert(offsetof(Ray, d) == 12 && offsetof(Ray, tMin) == 24 && offsetof(Ray, tMax) == 28 && sizeof(Ray) == 32);
     auto* f = reinterpret_cast<float*>(&r);
-    _mm_storeu_ps(f, _mm_setr_ps(ray.o.x, ray.o.y, ray.o.z, ray.tMin));
-    _mm_storeu_ps(f + 4, _mm_setr_ps(ray.d.x, ray.d.y, ray.d.z, 0.f));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(f + 8),  // tfar, mask, id, flags
-                     _mm_setr_epi32(std::bit_cast<int>(ray.tMax), -1, 0, 0));
+    const float* src = &ray.o.x;
+    const __m128 od = _mm_loadu_ps(src);               // o.x o.y o.z d.x
+    const __m128 dt = _mm_loadu_ps(src + 3);           // d.x d.y d.z tMin
+    const __m128 zt = _mm_shuffle_ps(od, dt, _MM_SHUFFLE(3, 3, 2, 2));  // o.z o.z tMin tMin
+    _mm_storeu_ps(f, _mm_shuffle_ps(od, zt, _MM_SHUFFLE(2, 0, 1, 0)));   // o.x o.y o.z tMin
+    _mm_storeu_ps(f + 4, _mm_and_ps(dt, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0))));  // d, time 0
+    _mm_storeu_ps(f + 8, _mm_or_ps(_mm_load_ss(src + 7),  // tfar, mask, id, flags
+                                   _mm_castsi128_ps(_mm_setr_epi32(0, -1, 0, 0))));
 }
+
+namespace {
+// Vec3 <-> SSE. load3 reads 16 bytes: the caller guarantees 4 readable bytes after the Vec3.
+inline __m128 load3(const Vec3& v) { return _mm_loadu_ps(&v.x); }
+inline __m128 set3(const Vec3& v) { return _mm_setr_ps(v.x, v.y, v.z, 0.f); }
+inline Vec3 toVec3(__m128 v) {
+    alignas(16) float f[4];
+    _mm_store_ps(f, v);
+    return Vec3(f[0], f[1], f[2]);
+}
+// w0 a + w1 b + w2 c, per lane in the order glm's `b0 * p0 + b1 * p1 + b2 * p2` evaluates it
+// (the same floats).
+inline __m128 blend3(float w0, __m128 a, float w1, __m128 b, float w2, __m128 c) {
+    return _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(w0), a), _mm_mul_ps(_mm_set1_ps(w1), b)),
+                      _mm_mul_ps(_mm_set1_ps(w2), c));
+}
+// glm::dot's order: (x + y) + z of the products.
+inline float dot3(__m128 a, __m128 b) {
+    __m128 m = _mm_mul_ps(a, b);
+    return _mm_cvtss_f32(_mm_add_ss(_mm_add_ss(m, _mm_shuffle_ps(m, m, 1)), _mm_movehl_ps(m, m)));
+}
+}  // namespace
 
 bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     RTCIntersectContext ctx;
@@ -282,48 +325,77 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     hit.light = gi.light;
     hit.deltaBsdf = gi.deltaBsdf;
     hit.roughness = gi.roughness;
-    Vec3 ns;
+    __m128 p, ng, ns;
     if (gi.mesh >= 0) {
-        const uint32_t* idx = gi.indices + 3 * size_t(rh.hit.primID);
-        const uint32_t i0 = idx[0], i1 = idx[1], i2 = idx[2];
+        const size_t prim = rh.hit.primID;
+        const MeshTri& tri = gi.tris[prim];  // the record after it (or the padding one) is readable
         const float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.f - b1 - b2;
-        const Vec3 &p0 = gi.positions[i0], &p1 = gi.positions[i1], &p2 = gi.positions[i2];
-        hit.p = b0 * p0 + b1 * p1 + b2 * p2;  // barycentric: more accurate than o + t d
-        hit.ng = glm::normalize(glm::cross(p1 - p0, p2 - p0));
-        ns = hit.ng;
+        p = blend3(b0, load3(tri.p0), b1, load3(tri.p1), b2, load3(tri.p2));  // barycentric: more accurate than o + t d
+        ns = ng = load3(tri.ng);
         if (gi.normals) {
-            Vec3 n = b0 * gi.normals[i0] + b1 * gi.normals[i1] + b2 * gi.normals[i2];
-            float len = glm::length(n);
-            if (len > 0.f && std::isfinite(len)) ns = n / len;
+            const MeshTriNormals& tn = gi.normals[prim];
+            __m128 n = blend3(b0, load3(tn.n0), b1, load3(tn.n1), b2, load3(tn.n2));
+            float len = std::sqrt(dot3(n, n));
+            if (len > 0.f && std::isfinite(len)) ns = _mm_div_ps(n, _mm_set1_ps(len));
         }
-        hit.uv = gi.uvs ? b0 * gi.uvs[i0] + b1 * gi.uvs[i1] + b2 * gi.uvs[i2] : Vec2(0.f);
+        if (gi.uvs) {
+            const uint32_t* idx = gi.indices + 3 * prim;
+            hit.uv = b0 * gi.uvs[idx[0]] + b1 * gi.uvs[idx[1]] + b2 * gi.uvs[idx[2]];
+        } else {
+            hit.uv = Vec2(0.f);
+        }
     } else {
         const SphereDesc& s = desc_.spheres[gi.sphere];
         Vec3 d = ray.o + hit.t * ray.d - s.center;
         Vec3 n = glm::normalize(d);
-        hit.p = s.center + s.radius * n;  // re-project onto the sphere
+        p = set3(s.center + s.radius * n);  // re-project onto the sphere
         if (s.flipNormals) n = -n;
-        hit.ng = ns = n;
+        ns = ng = set3(n);
         Vec3 dl = glm::normalize(d);
         hit.uv = Vec2(std::atan2(dl.y, dl.x) * (0.5f * kInvPi) + 0.5f, std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
     }
     // The shading normal lives on the same side as the geometric one.
-    if (glm::dot(ns, hit.ng) < 0.f) ns = -ns;
-    hit.shading = Frame(ns);
+    if (dot3(ns, ng) < 0.f) ns = _mm_xor_ps(ns, _mm_set1_ps(-0.f));
+    // p and ng as whole 16-byte stores, in this order (each spills one float into the next field,
+    // which the next store overwrites): the caller's 8- and 4-byte loads of them are then each
+    // inside one store and forwarded from the store buffer.
+    static_assert(offsetof(SurfaceHit, ng) == offsetof(SurfaceHit, p) + 12 &&
+                  offsetof(SurfaceHit, shading) == offsetof(SurfaceHit, ng) + 12);
+    _mm_storeu_ps(&hit.p.x, p);
+    _mm_storeu_ps(&hit.ng.x, ng);
+    hit.shading = Frame(toVec3(ns));
     return true;
 }
 
-Ray Scene::shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
-    Vec3 a = (n0 == Vec3(0.f)) ? p0 : offsetPoint(p0, n0, p1 - p0);
-    Vec3 b = (n1 == Vec3(0.f)) ? p1 : offsetPoint(p1, n1, p0 - p1);
-    Vec3 d = b - a;
-    float len = glm::length(d);
-    if (!(len > 0.f)) return Ray{a, Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
-    return Ray{a, d / len, 0.f, len * (1.f - 1e-5f)};
+namespace {
+// A Vec3 that may be the last thing in its allocation: 8 + 4 bytes (w = 0).
+inline __m128 load3Exact(const Vec3& v) {
+    return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(&v.x))), _mm_load_ss(&v.z));
 }
-Ray Scene::shadowRayInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
-    return (n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir);
+inline bool isZero3(__m128 v) { return (_mm_movemask_ps(_mm_cmpeq_ps(v, _mm_setzero_ps())) & 7) == 7; }
+inline __m128 abs3(__m128 v) { return _mm_andnot_ps(_mm_set1_ps(-0.f), v); }
+}  // namespace
+
+// offsetPoint on SSE lanes, the same floats: eps = 8e-6 maxAbs(p) + offsetScale_, p +- eps ng.
+static inline __m128 offsetPoint4(__m128 p, __m128 ng, __m128 towards, float offsetScale) {
+    const __m128 a = abs3(p);
+    // std::max(x, std::max(y, z)) as maxAbs computes it: (b < a) ? a : b is maxss(a, b) on non-NaN.
+    const float m = _mm_cvtss_f32(_mm_max_ss(_mm_max_ss(_mm_movehl_ps(a, a), _mm_shuffle_ps(a, a, 1)), a));
+    float eps = 8e-6f * m + offsetScale;
+    if (!(dot3(towards, ng) >= 0.f)) eps = -eps;
+    return _mm_add_ps(p, _mm_mul_ps(_mm_set1_ps(eps), ng));
 }
+
+Ray Scene::shadowRay(const Vec3& p0v, const Vec3& n0v, const Vec3& p1v, const Vec3& n1v) const {
+    const __m128 p0 = load3Exact(p0v), n0 = load3Exact(n0v), p1 = load3Exact(p1v), n1 = load3Exact(n1v);
+    const __m128 a = isZero3(n0) ? p0 : offsetPoint4(p0, n0, _mm_sub_ps(p1, p0), offsetScale_);
+    const __m128 b = isZero3(n1) ? p1 : offsetPoint4(p1, n1, _mm_sub_ps(p0, p1), offsetScale_);
+    const __m128 d = _mm_sub_ps(b, a);
+    const float len = std::sqrt(dot3(d, d));
+    if (!(len > 0.f)) return Ray{toVec3(a), Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
+    return Ray{toVec3(a), toVec3(_mm_div_ps(d, _mm_set1_ps(len))), 0.f, len * (1.f - 1e-5f)};
+}
+
 bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
     Ray r = shadowRay(p0, n0, p1, n1);
     return r.tMax > 0.f && occludedRay(r);

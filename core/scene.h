@@ -5,6 +5,7 @@
 #include <memory>
 #include <vector>
 #include "core/camera.h"
+#include "core/huge_pages.h"
 #include "core/lights.h"
 #include "core/sampling.h"
 #include "core/scene_desc.h"
@@ -44,11 +45,21 @@ public:
     bool occludedRay(const Ray& r) const;
     // The shadow rays `occluded` and `occludedInfinite` cast (tMax = 0: degenerate, nothing to cast).
     Ray shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
-    Ray shadowRayInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const;
+    Ray shadowRayInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
+        return (n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir);
+    }
 
     // Ray leaving surface point p (geometric normal ng) in direction d, offset to the side of d.
-    Ray spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const;
-    Vec3 offsetPoint(const Vec3& p, const Vec3& ng, const Vec3& towards) const;
+    // Inline (with offsetPoint and shadowRay): called once or twice per path vertex from other files.
+    Ray spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const {
+        return Ray{offsetPoint(p, ng, d), d, 0.f, kInf};
+    }
+    Vec3 offsetPoint(const Vec3& p, const Vec3& ng, const Vec3& towards) const {
+        // Float error of a hit point is proportional to its coordinates' magnitude; the second term
+        // covers points near the origin. Both scale with the scene. p - eps ng == p + (-eps) ng exactly.
+        float eps = 8e-6f * maxAbs(p) + offsetScale_;
+        return p + (glm::dot(towards, ng) >= 0.f ? eps : -eps) * ng;
+    }
 
     const Camera& camera() const { return *camera_; }
     const std::vector<Light>& lights() const { return lights_; }
@@ -76,10 +87,18 @@ private:
     Distribution1D lightDist_;
     std::vector<const Light*> envLights_;
     // What a hit needs of its shape, by Embree geomID, flat (no lookups through the description).
+    // What a hit on a triangle reads, by primID, built at construction so that a hit touches one
+    // or two records instead of indices -> positions and normals: the vertices (the same floats as
+    // the mesh's, so the barycentric position is unchanged), the unit face normal
+    // normalize(cross(p1 - p0, p2 - p0)), and in a second array (meshes with vertex normals only)
+    // the three vertex normals. Each array ends with one padding record: 16-byte loads of the last
+    // Vec3 of a record stay inside the allocation.
+    struct MeshTri { Vec3 p0, p1, p2, ng; };   // 48 bytes
+    struct MeshTriNormals { Vec3 n0, n1, n2; };  // 36 bytes
     struct GeomInfo {
         int mesh = -1, sphere = -1;
-        const Vec3* positions = nullptr;
-        const Vec3* normals = nullptr;  // null: face normals
+        const MeshTri* tris = nullptr;
+        const MeshTriNormals* normals = nullptr;  // null: face normals
         const Vec2* uvs = nullptr;
         const uint32_t* indices = nullptr;
         const Bxdf* bxdf = nullptr;
@@ -89,6 +108,8 @@ private:
     };
     // An emitting triangle, ready for sampling: p = p0 + b1 e1 + b2 e2, unit normal n.
     struct EmitterTriangle { Vec3 p0, e1, e2, n; };
+    HugeVector<MeshTri> tris_;                // all meshes, in geometry order, + 1 padding record
+    HugeVector<MeshTriNormals> triNormals_;   // meshes with vertex normals, + 1 padding record
     std::vector<SphereGeom> spheres_;  // user data of the Embree sphere geometries (double precision)
     std::vector<GeomInfo> geoms_;                  // by Embree geomID
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
