@@ -481,7 +481,7 @@ bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, i
         float cosPrev = ph.prevNg != Vec3(0.f) ? std::abs(glm::dot(ph.prevNg, d)) / std::sqrt(d2) : 1.f;
         P.fromCamera[i - 1] = d2 > 0.f ? ez.pdfFwd.value * cosPrev / d2 : 0.f;
     }
-    P.fromLight[i + 1] = convertDensity(ez.pdfRev, zv, z[t - 2]).value;
+    P.fromLight[i + 1] = convertDensity(ez.pdfRev, z[t - 2], zv.wo, sqr(zv.segmentLength)).value;
     if (!lightPdfs) {
         double ratio = remapDensity(P.fromCamera[i - 1]) / remapDensity(P.fromLight[i - 1]);
         P.belowBase = ratio * ratio * ph.misLight;

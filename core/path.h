@@ -47,14 +47,15 @@ struct PathVertex {
     SurfaceBsdf bsdf() const { return SurfaceBsdf(bxdf, shading, ng); }
 };
 
-// Area density at `to` of a solid-angle density at `from` (no conversion for a vertex at infinity).
-inline AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& from, const PathVertex& to) {
+// Area density at `to` of a solid-angle density sampled towards it (no conversion for a vertex at
+// infinity), from the unit direction between the two vertices (either sign) and their squared
+// distance, which every caller already has (the connection segment, or a walk's own segment:
+// wo and segmentLength of the vertex it arrived at).
+inline AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& to, const Vec3& dir, float dist2) {
     if (to.infinite) return AreaPdf(pdf.value);
-    Vec3 d = to.p - from.p;
-    float d2 = glm::dot(d, d);
-    if (!(d2 > 0.f)) return AreaPdf(0.f);
-    float c = to.onSurface() ? std::abs(glm::dot(to.ng, d)) / std::sqrt(d2) : 1.f;
-    return AreaPdf(pdf.value * c / d2);
+    if (!(dist2 > 0.f)) return AreaPdf(0.f);
+    float c = to.onSurface() ? std::abs(glm::dot(to.ng, dir)) : 1.f;
+    return AreaPdf(pdf.value * c / dist2);
 }
 
 // The rays a walk or connection casts, logged when WalkStats::log is set (tools/raybench replays
@@ -64,15 +65,6 @@ struct RayLog {
     std::vector<Ray> closest, shadow;
     std::vector<uint16_t> closestDepth;  // segments before the ray (0: the walk's first ray)
 };
-
-// The same, with the unit direction between the two vertices and their squared distance already
-// known (connections compute them once): the cosine at `to` is |to.ng . dir|.
-inline AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& to, const Vec3& dir, float dist2) {
-    if (to.infinite) return AreaPdf(pdf.value);
-    if (!(dist2 > 0.f)) return AreaPdf(0.f);
-    float c = to.onSurface() ? std::abs(glm::dot(to.ng, dir)) : 1.f;
-    return AreaPdf(pdf.value * c / dist2);
-}
 
 struct WalkStats {
     uint64_t rays = 0;

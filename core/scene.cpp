@@ -367,33 +367,14 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     return true;
 }
 
-namespace {
-// A Vec3 that may be the last thing in its allocation: 8 + 4 bytes (w = 0).
-inline __m128 load3Exact(const Vec3& v) {
-    return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(&v.x))), _mm_load_ss(&v.z));
-}
-inline bool isZero3(__m128 v) { return (_mm_movemask_ps(_mm_cmpeq_ps(v, _mm_setzero_ps())) & 7) == 7; }
-inline __m128 abs3(__m128 v) { return _mm_andnot_ps(_mm_set1_ps(-0.f), v); }
-}  // namespace
-
-// offsetPoint on SSE lanes, the same floats: eps = 8e-6 maxAbs(p) + offsetScale_, p +- eps ng.
-static inline __m128 offsetPoint4(__m128 p, __m128 ng, __m128 towards, float offsetScale) {
-    const __m128 a = abs3(p);
-    // std::max(x, std::max(y, z)) as maxAbs computes it: (b < a) ? a : b is maxss(a, b) on non-NaN.
-    const float m = _mm_cvtss_f32(_mm_max_ss(_mm_max_ss(_mm_movehl_ps(a, a), _mm_shuffle_ps(a, a, 1)), a));
-    float eps = 8e-6f * m + offsetScale;
-    if (!(dot3(towards, ng) >= 0.f)) eps = -eps;
-    return _mm_add_ps(p, _mm_mul_ps(_mm_set1_ps(eps), ng));
-}
-
-Ray Scene::shadowRay(const Vec3& p0v, const Vec3& n0v, const Vec3& p1v, const Vec3& n1v) const {
-    const __m128 p0 = load3Exact(p0v), n0 = load3Exact(n0v), p1 = load3Exact(p1v), n1 = load3Exact(n1v);
-    const __m128 a = isZero3(n0) ? p0 : offsetPoint4(p0, n0, _mm_sub_ps(p1, p0), offsetScale_);
-    const __m128 b = isZero3(n1) ? p1 : offsetPoint4(p1, n1, _mm_sub_ps(p0, p1), offsetScale_);
-    const __m128 d = _mm_sub_ps(b, a);
-    const float len = std::sqrt(dot3(d, d));
-    if (!(len > 0.f)) return Ray{toVec3(a), Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
-    return Ray{toVec3(a), toVec3(_mm_div_ps(d, _mm_set1_ps(len))), 0.f, len * (1.f - 1e-5f)};
+Ray Scene::shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
+    // Both ends offset by the one rule (offsetPoint), unless not on a surface (zero normal).
+    const Vec3 a = n0 == Vec3(0.f) ? p0 : offsetPoint(p0, n0, p1 - p0);
+    const Vec3 b = n1 == Vec3(0.f) ? p1 : offsetPoint(p1, n1, p0 - p1);
+    const Vec3 d = b - a;
+    const float len = glm::length(d);
+    if (!(len > 0.f)) return Ray{a, Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
+    return Ray{a, d / len, 0.f, len * (1.f - 1e-5f)};
 }
 
 bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {

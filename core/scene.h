@@ -50,7 +50,7 @@ public:
     }
 
     // Ray leaving surface point p (geometric normal ng) in direction d, offset to the side of d.
-    // Inline (with offsetPoint and shadowRay): called once or twice per path vertex from other files.
+    // Inline (with offsetPoint): called once or twice per path vertex from other files.
     Ray spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const {
         return Ray{offsetPoint(p, ng, d), d, 0.f, kInf};
     }
@@ -86,7 +86,6 @@ private:
     std::vector<Light> lights_;
     Distribution1D lightDist_;
     std::vector<const Light*> envLights_;
-    // What a hit needs of its shape, by Embree geomID, flat (no lookups through the description).
     // What a hit on a triangle reads, by primID, built at construction so that a hit touches one
     // or two records instead of indices -> positions and normals: the vertices (the same floats as
     // the mesh's, so the barycentric position is unchanged), the unit face normal
@@ -95,6 +94,7 @@ private:
     // Vec3 of a record stay inside the allocation.
     struct MeshTri { Vec3 p0, p1, p2, ng; };   // 48 bytes
     struct MeshTriNormals { Vec3 n0, n1, n2; };  // 36 bytes
+    // What a hit needs of its shape, by Embree geomID, flat (no lookups through the description).
     struct GeomInfo {
         int mesh = -1, sphere = -1;
         const MeshTri* tris = nullptr;

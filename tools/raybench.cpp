@@ -84,14 +84,10 @@ Timings synthetic(const Scene* scene, int passes) {
             if (scene->lights().empty()) continue;
             const Light& l = scene->lights()[scene->lightDistribution().sample(rng.uniform())];
             LightSampleLi ls = l.sampleLi(*scene, hits[i].p, rng.uniform2());
-            if (l.isInfinite()) {
-                shadow.push_back(toRtc(scene->spawnRay(hits[i].p, hits[i].ng, ls.wi)));
-            } else {
-                Vec3 a = scene->offsetPoint(hits[i].p, hits[i].ng, ls.p - hits[i].p);
-                Vec3 dd = ls.p - a;
-                float len = glm::length(dd);
-                if (len > 0.f) shadow.push_back(toRtc(Ray{a, dd / len, 0.f, len * (1.f - 1e-4f)}));
-            }
+            // The renderer's own shadow rays (Scene::shadowRay offsets both ends).
+            Ray r = l.isInfinite() ? scene->shadowRayInfinite(hits[i].p, hits[i].ng, ls.wi)
+                                   : scene->shadowRay(hits[i].p, hits[i].ng, ls.p, ls.n);
+            if (r.tMax > 0.f) shadow.push_back(toRtc(r));
         }
         tCam += cast(scene->embreeScene(), camRays, false);
         tBounce += cast(scene->embreeScene(), bounce, false);
