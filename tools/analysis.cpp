@@ -69,41 +69,6 @@ int toInt(const std::string& opt, const std::string& v) {
     return int(d);
 }
 
-// RenderSettings grows with the integrators; these set a field only where this build has it.
-template <class S>
-bool setRadius(S& s, double r) {
-    if constexpr (requires { s.radius; }) {
-        s.radius = decltype(s.radius)(r);
-        return true;
-    } else if constexpr (requires { s.initialRadius; }) {
-        s.initialRadius = decltype(s.initialRadius)(r);
-        return true;
-    } else {
-        return false;
-    }
-}
-template <class S>
-bool setAlpha(S& s, double a) {
-    if constexpr (requires { s.radiusAlpha; }) {
-        s.radiusAlpha = decltype(s.radiusAlpha)(a);
-        return true;
-    } else if constexpr (requires { s.alpha; }) {
-        s.alpha = decltype(s.alpha)(a);
-        return true;
-    } else {
-        return false;
-    }
-}
-template <class S>
-bool setOption(S& s, const std::string& k, const std::string& v) {
-    if constexpr (requires { s.options[k] = v; }) {
-        s.options[k] = v;
-        return true;
-    } else {
-        return false;
-    }
-}
-
 }  // namespace
 
 RunConfig parseConfig(const std::string& spec) {
@@ -205,21 +170,18 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     s.maxDepth = desc.integrator.maxDepth;
     s.rrDepth = desc.integrator.rrDepth;
     s.hideEmitters = desc.integrator.hideEmitters;
-    if (desc.integrator.radius > 0) setRadius(s, desc.integrator.radius);
-    setAlpha(s, desc.integrator.radiusAlpha);
+    if (desc.integrator.radius > 0) s.radius = desc.integrator.radius;
+    s.radiusAlpha = desc.integrator.radiusAlpha;
     if (c.ptStrategy) s.ptStrategy = *c.ptStrategy;
     if (c.maxDepth) s.maxDepth = *c.maxDepth;
     if (c.rrDepth) s.rrDepth = *c.rrDepth;
     if (c.hideEmitters) s.hideEmitters = *c.hideEmitters;
-    if (c.radius && !setRadius(s, *c.radius))
-        throw std::invalid_argument("configuration '" + c.spec + "': this build's RenderSettings has no radius");
-    if (c.radiusAlpha && !setAlpha(s, *c.radiusAlpha))
-        throw std::invalid_argument("configuration '" + c.spec + "': this build's RenderSettings has no radius alpha");
-    for (const auto& [k, v] : c.extra)
-        if (!setOption(s, k, v))
-            throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
+    if (c.radius) s.radius = float(*c.radius);
+    if (c.radiusAlpha) s.radiusAlpha = float(*c.radiusAlpha);
+    if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
+        throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
                                                     "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --label)",
-                                                    c.spec, k));
+                                                    c.spec, c.extra.begin()->first));
     return s;
 }
 

@@ -20,11 +20,9 @@ namespace lt::analysis {
 // A configuration is an integrator name followed by options, as one string:
 //   "pt"  "pt --pt-strategy bsdf"  "vcm --radius 0.01 --radius-alpha 0.75"  "bpt --max-depth 8 --label BPT"
 // Options (as in `render`): --pt-strategy mis|nee|bsdf, --max-depth D, --rr-depth D, --hide-emitters,
-// --radius R, --radius-alpha A (or --alpha; initial radius and radius reduction of VCM/PPM; set
-// when this build's RenderSettings has such fields: `radius`/`initialRadius`, `radiusAlpha`/`alpha`),
+// --radius R, --radius-alpha A (or --alpha; initial radius and radius reduction of VCM/PPM),
 // --label NAME (the name in legends, tables and the CSV; default: the whole string). Any other
-// `--name value` is passed on when RenderSettings carries a string map `options`, otherwise it is
-// an error. Mitsuba integrator
+// `--name value` is an error naming it. Mitsuba integrator
 // names (path, bdpt, ptracer) are accepted for pt, bpt, lt.
 struct RunConfig {
     std::string spec;        // as given

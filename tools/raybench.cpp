@@ -20,6 +20,7 @@
 #include "core/rng.h"
 #include "core/scene.h"
 #include "integrators/integrator.h"
+#include "tools/analysis.h"
 
 using namespace lt;
 
@@ -146,13 +147,10 @@ int main(int argc, char** argv) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     Timings T;
     if (mode == "replay") {
-        const SceneDesc& desc = scene->desc();
-        RenderSettings settings;
-        settings.seed = desc.seed;
-        settings.maxDepth = maxDepth >= -1 ? maxDepth : desc.integrator.maxDepth;
-        settings.rrDepth = desc.integrator.rrDepth;
-        settings.hideEmitters = desc.integrator.hideEmitters;
-        T = replay(*scene, settings, passes);
+        // The scene's settings, as the analysis tools read them, with the max depth overridden.
+        analysis::RunConfig cfg = analysis::parseConfig("pt");
+        if (maxDepth >= -1) cfg.maxDepth = maxDepth;
+        T = replay(*scene, analysis::makeSettings(scene->desc(), cfg, threads, scene->desc().seed), passes);
     } else {
         T = synthetic(scene.get(), passes);
     }
