@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 namespace lt {
@@ -22,7 +23,15 @@ inline float sqr(float x) { return x * x; }
 inline float safeSqrt(float x) { return std::sqrt(std::max(0.f, x)); }
 inline float maxComp(const Vec3& v) { return std::max(v.x, std::max(v.y, v.z)); }
 inline float luminance(const Color& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
-inline bool isBlack(const Color& c) { return c.x == 0.f && c.y == 0.f && c.z == 0.f; }
+// All three components +0 or -0 (NaN is not black), as c.x == 0 && c.y == 0 && c.z == 0, without
+// the three compare-and-branch pairs: the bits of the three floats, or-ed, without the sign bits.
+inline bool isBlack(const Color& c) {
+    uint32_t x, y, z;
+    std::memcpy(&x, &c.x, 4);
+    std::memcpy(&y, &c.y, 4);
+    std::memcpy(&z, &c.z, 4);
+    return ((x | y | z) << 1) == 0u;
+}
 inline bool isFinite(const Color& c) { return std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z); }
 inline float maxAbs(const Vec3& v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
 
