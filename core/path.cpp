@@ -289,7 +289,9 @@ float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
 
 void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit) {
     pdfs.n = s + t;
-    for (int j = std::max(0, s + t - 1 - readLimit); j < t; ++j) {
+    // Entries up to readLimit + 1: the density there is not read, the delta flag is (cheap to copy).
+    const int limit = readLimit < kMaxPathVertices ? readLimit + 1 : readLimit;
+    for (int j = std::max(0, s + t - 1 - limit); j < t; ++j) {
         int i = s + t - 1 - j;
         pdfs.fromCamera[i] = z[j].pdfFwd.value;
         pdfs.fromLight[i] = z[j].pdfRev.value;
@@ -328,7 +330,7 @@ Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs,
     pdfs.delta[0] = false;
     pdfs.lightHittable = true;
     // light travels along v.wo, over the segment that arrived at v
-    pdfs.fromLight[1] = emissionDensity(scene, v, v.wo, z[t - 2], sqr(v.segmentLength)).value;
+    if (readLimit >= 1) pdfs.fromLight[1] = emissionDensity(scene, v, v.wo, z[t - 2], sqr(v.segmentLength)).value;
     return v.beta * Le;
 }
 
@@ -432,15 +434,16 @@ bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z
     gatherCameraPdfs(z, t, s, P, readLimit);
     // The segments' directions and lengths are known: a-b here, and the walks' own segments
     // arriving at a and b (wo, segmentLength).
-    P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, a, wBA, abDist2).value;
-    if (s >= 2) P.fromCamera[s - 2] = convertDensity(ea.pdfRev, y[s - 2], a.wo, sqr(a.segmentLength)).value;
-    if (a.kind == VertexKind::Light) {
-        P.fromLight[s] = emissionDensity(scene, a, -wBA, b, abDist2).value;
-        P.delta[s - 1] = false;
-    } else {
-        P.fromLight[s] = convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
-    }
-    if (t >= 2) P.fromLight[s + 1] = convertDensity(eb.pdfRev, z[t - 2], b.wo, sqr(b.segmentLength)).value;
+    // (Densities above readLimit are not read: the path tracer skips all but x_0's.)
+    if (s - 1 <= readLimit) P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, a, wBA, abDist2).value;
+    if (s >= 2 && s - 2 <= readLimit)
+        P.fromCamera[s - 2] = convertDensity(ea.pdfRev, y[s - 2], a.wo, sqr(a.segmentLength)).value;
+    if (a.kind == VertexKind::Light) P.delta[s - 1] = false;
+    if (s <= readLimit)
+        P.fromLight[s] = a.kind == VertexKind::Light ? emissionDensity(scene, a, -wBA, b, abDist2).value
+                                                     : convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
+    if (t >= 2 && s + 1 <= readLimit)
+        P.fromLight[s + 1] = convertDensity(eb.pdfRev, z[t - 2], b.wo, sqr(b.segmentLength)).value;
     c.contribution = contrib;
     return true;
 }

@@ -151,12 +151,15 @@ inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) { return m
 // tracer's two techniques); for the tests that check the fast forms against the plain one.
 float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 
-// The highest pdf-array index the MIS sum of `cfg` can read. The path tracer's two techniques
-// (s = 0 and s = 1, no merging) compare only x_0's two densities and read delta[0..1], so its
-// gathers stop at x_2: O(1) per connection instead of O(t). Every other set reads the whole path.
-// (Tested: weights from the limited gather equal those from the full gather.)
+// The highest index of a density (fromLight, fromCamera) the MIS sum of `cfg` can read; it reads
+// delta flags up to one index higher (technique k compares the densities at x_{k-1} and needs
+// both neighbours' flags). The path tracer's two techniques (s = 0 and s = 1, no merging) compare
+// only x_0's two densities and read delta[0..1]: its gathers stop there, and its connections
+// skip the densities they would recompute above x_0 (O(1) per connection instead of O(t)).
+// Every other set reads the whole path. (Tested: weights from the limited gather equal those
+// from the full gather, with the entries not filled poisoned.)
 inline int misReadLimit(const MisConfig& cfg) {
-    return cfg.set == TechniqueSet::PathTracer && !cfg.merging ? 2 : kMaxPathVertices;
+    return cfg.set == TechniqueSet::PathTracer && !cfg.merging ? 0 : kMaxPathVertices;
 }
 
 // ---- Connection ----------------------------------------------------------------------------
@@ -172,7 +175,8 @@ struct Connection {
 // Connects the light subpath y[0..s-1] with the camera subpath z[0..t-1] (s >= 1, t >= 1; t = 1 is
 // light tracing: z[0] is the camera and the result carries the raster position).
 // Returns false when the connection carries nothing.
-// Only pdf entries up to readLimit (misReadLimit) are gathered.
+// Only the densities up to index readLimit (misReadLimit) are gathered or recomputed, and the delta
+// flags up to readLimit + 1.
 bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
              WalkStats& stats, int readLimit = kMaxPathVertices);
 
@@ -205,7 +209,7 @@ double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisC
 double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double prev);
 
 // Gathers the pdfs of the camera subpath z[0..t-1] into pdfs (x indices s..s+t-1, those above
-// readLimit skipped), n = s + t.
+// readLimit + 1 skipped: see misReadLimit), n = s + t.
 void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
 void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
 
