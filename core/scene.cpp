@@ -207,7 +207,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         lights_.push_back(l);
     }
     meshTriDist_.resize(desc_.meshes.size());
-    meshTris_.resize(desc_.meshes.size());
+    std::vector<size_t> emitterTriStart(desc_.meshes.size());
     for (size_t i = 0; i < desc_.meshes.size(); ++i) {
         const MeshDesc& m = desc_.meshes[i];
         if (m.emitter < 0) continue;
@@ -216,7 +216,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         l.meshIndex = int(i);
         // Each triangle ready for sampling, and its area for the choice between triangles.
         std::vector<float> areas(m.indices.size() / 3);
-        meshTris_[i].reserve(areas.size());
+        emitterTriStart[i] = emitterTris_.size();
         double total = 0;
         for (size_t t = 0; t < areas.size(); ++t) {
             const Vec3& a = m.positions[m.indices[3 * t]];
@@ -225,18 +225,24 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
             Vec3 n = glm::cross(b - a, c - a);
             float len = glm::length(n);
             total += (areas[t] = 0.5f * len);
-            meshTris_[i].push_back({a, b - a, c - a, len > 0.f ? n / len : Vec3(0.f)});
+            emitterTris_.push_back({a, b - a, c - a, len > 0.f ? n / len : Vec3(0.f)});
         }
         l.area = float(total);
         l.invArea = total > 0 ? float(1.0 / total) : 0.f;
         meshTriDist_[i] = Distribution1D(areas);
         meshLight_[i] = li;
     }
+    for (Light& l : lights_) {  // (the arrays no longer move)
+        if (l.meshIndex < 0) continue;
+        l.tris = emitterTris_.data() + emitterTriStart[l.meshIndex];
+        l.triDist = &meshTriDist_[l.meshIndex];
+    }
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
         const SphereDesc& s = desc_.spheres[i];
         if (s.emitter < 0) continue;
         int li = emitterToLight.at(s.emitter);
         lights_[li].sphereIndex = int(i);
+        lights_[li].sphere = &s;
         lights_[li].area = 4.f * kPi * s.radius * s.radius;
         lights_[li].invArea = lights_[li].area > 0.f ? 1.f / lights_[li].area : 0.f;
         sphereLight_[i] = li;
@@ -399,22 +405,6 @@ bool Scene::occludedRay(const Ray& r) const {
     fillRay(rr, r);
     rtcOccluded1(scene_, &ctx, &rr);
     return rr.tfar < 0.f;
-}
-
-void Scene::sampleAreaLight(const Light& l, const Vec2& uIn, Vec3& p, Vec3& n) const {
-    Vec2 u = uIn;
-    if (l.sphereIndex >= 0) {
-        const SphereDesc& s = desc_.spheres[l.sphereIndex];
-        Vec3 d = sampleUniformSphere(u);
-        p = s.center + s.radius * d;
-        n = s.flipNormals ? -d : d;
-        return;
-    }
-    size_t tri = meshTriDist_[l.meshIndex].sample(u.x, &u.x);  // u.x reused, remapped within the bin
-    const EmitterTriangle& et = meshTris_[l.meshIndex][tri];
-    Vec2 bc = sampleUniformTriangle(u);
-    p = et.p0 + bc.x * et.e1 + bc.y * et.e2;
-    n = et.n;
 }
 
 }  // namespace lt

@@ -101,9 +101,6 @@ public:
     float boundsRadius() const { return radius_; }           // geometry and camera
     float geometryRadius() const { return geometryRadius_; }  // geometry only (merge radius default)
 
-    // Uniform point on the shape of an area light: position, normal.
-    void sampleAreaLight(const Light& l, const Vec2& u, Vec3& p, Vec3& n) const;
-
     const SceneDesc& desc() const { return desc_; }
     size_t triangleCount() const { return triangleCount_; }
     RTCScene embreeScene() const { return scene_; }
@@ -136,15 +133,14 @@ private:
         bool deltaBsdf = false;
         float roughness = 1.f;
     };
-    // An emitting triangle, ready for sampling: p = p0 + b1 e1 + b2 e2, unit normal n.
-    struct EmitterTriangle { Vec3 p0, e1, e2, n; };
     HugeVector<MeshTri> tris_;                // all meshes, in geometry order, + 1 padding record
     HugeVector<MeshTriNormals> triNormals_;   // meshes with vertex normals, + 1 padding record
     std::vector<SphereGeom> spheres_;  // user data of the Embree sphere geometries (double precision)
     std::vector<GeomInfo> geoms_;                  // by Embree geomID
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
-    std::vector<Distribution1D> meshTriDist_;      // area-proportional triangle choice per emitter mesh
-    std::vector<std::vector<EmitterTriangle>> meshTris_;  // per emitter mesh
+    // Emitting meshes: their triangles (all, in mesh order) and the choice between them (per mesh).
+    std::vector<EmitterTriangle> emitterTris_;
+    std::vector<Distribution1D> meshTriDist_;
     Vec3 center_{0.f};
     float radius_ = 1.f, geometryRadius_ = 1.f;
     float offsetScale_ = 0.f;  // scene-relative part of the ray offset
