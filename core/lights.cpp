@@ -11,45 +11,53 @@ float Light::spotFalloff(const Vec3& w) const {
     return std::clamp((cutoff - angle) / std::max(cutoff - beamWidth, 1e-7f), 0.f, 1.f);
 }
 
+// A uniform point on an area light's shape. The mesh path is inline in the samplers: the point
+// stays in registers (the sphere's is a call).
+inline Light::AreaPoint Light::sampleMesh(const Vec2& uIn) const {
+    Vec2 u = uIn;
+    const EmitterTriangle& et = tris[triDist->sample(u.x, &u.x)];  // u.x reused, remapped within the bin
+    const Vec2 bc = sampleUniformTriangle(u);
+    return {et.p0 + bc.x * et.e1 + bc.y * et.e2, et.n};
+}
+inline Light::AreaPoint Light::sampleArea(const Vec2& u) const { return sphere ? sampleSphere(u) : sampleMesh(u); }
+
+Light::AreaPoint Light::sampleSphere(const Vec2& u) const {
+    const Vec3 d = sampleUniformSphere(u);
+    return {sphere->center + sphere->radius * d, sphere->flipNormals ? -d : d};
+}
+
+// Only the side matters for the one-sided emission: no normalised direction needed (the
+// connection computes the unit direction and the distance once).
+inline LightSampleLi Light::areaSampleLi(const AreaPoint& a, const Vec3& refP) const {
+    const Vec3 d = refP - a.p;
+    if (!(glm::dot(d, d) > 0.f)) return {};
+    return {a.p, a.n, Vec3(0.f), glm::dot(a.n, d) > 0.f ? value : Color(0.f), AreaPdf(invArea)};
+}
+
+// Each case returns its sample as one prvalue (constructed in place, every field once).
 LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const {
-    LightSampleLi s;
     switch (type) {
-        case LightType::Area: {
-            // Only the side matters for the one-sided emission: no normalised direction needed
-            // (the connection computes the unit direction and the distance once).
-            scene.sampleAreaLight(*this, u, s.p, s.n);
-            Vec3 d = refP - s.p;
-            if (!(glm::dot(d, d) > 0.f)) { s = LightSampleLi{}; return s; }  // (one named return object: NRVO, no struct copy)
-            s.value = glm::dot(s.n, d) > 0.f ? value : Color(0.f);
-            s.pdfPos = AreaPdf(invArea);
-            return s;
-        }
+        case LightType::Area:
+            // (Not through sampleArea: the two paths do not merge, the mesh's point stays in registers.)
+            return sphere ? areaSampleLi(sampleSphere(u), refP) : areaSampleLi(sampleMesh(u), refP);
         case LightType::Point:
         case LightType::Spot: {
-            s.p = position;
-            Vec3 d = s.p - refP;
-            float dist = glm::length(d);
-            if (!(dist > 0.f)) { s = LightSampleLi{}; return s; }  // (one named return object: NRVO, no struct copy)
-            s.value = type == LightType::Spot ? value * spotFalloff(-d / dist) : value;
-            s.pdfPos = AreaPdf(1.f);
-            return s;
+            const Vec3 d = position - refP;
+            const float dist = glm::length(d);
+            if (!(dist > 0.f)) return {};
+            return {position, Vec3(0.f), Vec3(0.f), type == LightType::Spot ? value * spotFalloff(-d / dist) : value,
+                    AreaPdf(1.f)};
         }
         case LightType::Directional: {
-            s.wi = -direction;
-            s.p = refP + s.wi * (2.f * scene.boundsRadius());
-            s.value = value;
-            s.pdfPos = AreaPdf(1.f);
-            return s;
+            const Vec3 wi = -direction;
+            return {refP + wi * (2.f * scene.boundsRadius()), Vec3(0.f), wi, value, AreaPdf(1.f)};
         }
         case LightType::Constant: {
-            s.wi = sampleUniformSphere(u);
-            s.p = refP + s.wi * (2.f * scene.boundsRadius());
-            s.value = value;
-            s.pdfPos = AreaPdf(kUniformSpherePdf);
-            return s;
+            const Vec3 wi = sampleUniformSphere(u);
+            return {refP + wi * (2.f * scene.boundsRadius()), Vec3(0.f), wi, value, AreaPdf(kUniformSpherePdf)};
         }
     }
-    return s;
+    return {};
 }
 
 AreaPdf Light::pdfLi(const Scene&, const Vec3&, const Vec3&, const Vec3&, const Vec3&) const {
@@ -87,7 +95,9 @@ LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& 
     LightSampleLe s;
     switch (type) {
         case LightType::Area: {
-            scene.sampleAreaLight(*this, uPos, s.p, s.n);
+            const AreaPoint a = sampleArea(uPos);
+            s.p = a.p;
+            s.n = a.n;
             Vec3 local = sampleCosineHemisphere(uDir);
             s.dir = Frame(s.n).toWorld(local);
             s.value = value;

@@ -32,12 +32,22 @@ struct LightSampleLe {
     SolidAnglePdf pdfDir;
 };
 
+// An emitting triangle, ready for sampling: p = p0 + b1 e1 + b2 e2, unit normal n.
+struct EmitterTriangle {
+    Vec3 p0, e1, e2, n;
+};
+
 class Light {
 public:
     LightType type;
     Color value{0.f};
-    // Area lights: the shape's triangles (indices into the mesh) or a sphere.
+    // Area lights: the shape, a mesh or a sphere (indices into the scene description).
     int meshIndex = -1, sphereIndex = -1;
+    // What sampling a point on the shape reads, set by the scene (which owns it): a mesh's
+    // triangles with the area-proportional choice between them, or the sphere.
+    const EmitterTriangle* tris = nullptr;
+    const Distribution1D* triDist = nullptr;
+    const SphereDesc* sphere = nullptr;
     Vec3 position{0.f}, direction{0, 0, 1};  // point/spot; spot axis; directional travel direction
     float cosCutoff = 1.f, cutoff = 0.f, beamWidth = 0.f;  // spot, radians
     float area = 0.f, invArea = 0.f;  // area lights (set by the scene)
@@ -73,6 +83,17 @@ public:
 
     // Total emitted power (for choosing lights), needs the scene radius for infinite lights.
     float power(const Scene& scene) const;
+
+private:
+    // Uniform point on an area light's shape: position p, normal n.
+    struct AreaPoint {
+        Vec3 p, n;
+    };
+    AreaPoint sampleArea(const Vec2& u) const;
+    AreaPoint sampleMesh(const Vec2& u) const;
+    AreaPoint sampleSphere(const Vec2& u) const;
+    // sampleLi's sample for an area light's point a.
+    LightSampleLi areaSampleLi(const AreaPoint& a, const Vec3& refP) const;
 };
 
 }  // namespace lt

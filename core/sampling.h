@@ -67,38 +67,46 @@ inline float powerHeuristic(float a, float b) {
 
 // Piecewise-constant 1D distribution (for lights by power, triangles by area).
 // Sampling is a branch-free binary search (a fixed number of steps for a given size, so no
-// mispredicted branches on random u) and remaps u within the bin by a multiplication.
+// mispredicted branches on random u) and remaps u within the bin by a multiplication; a bin's
+// cdf and inverse width sit together (one cache line, one base pointer).
 class Distribution1D {
 public:
     Distribution1D() = default;
-    explicit Distribution1D(const std::vector<float>& w) : cdf_(w.size() + 1, 0.0), invWidth_(w.size(), 0.0) {
-        for (size_t i = 0; i < w.size(); ++i) cdf_[i + 1] = cdf_[i] + double(w[i]);
-        total_ = cdf_.back();
-        for (size_t i = 1; i < cdf_.size(); ++i)
-            cdf_[i] = total_ > 0 ? cdf_[i] / total_ : double(i) / double(w.size());
-        for (size_t i = 0; i < w.size(); ++i) {
-            double width = cdf_[i + 1] - cdf_[i];
-            invWidth_[i] = width > 0 ? 1.0 / width : 0.0;
+    explicit Distribution1D(const std::vector<float>& w) : bins_(w.size() + 1, Bin{0.0, 0.0}), n_(w.size()) {
+        std::vector<double> cdf(w.size() + 1, 0.0);
+        for (size_t i = 0; i < w.size(); ++i) cdf[i + 1] = cdf[i] + double(w[i]);
+        total_ = cdf.back();
+        for (size_t i = 1; i < cdf.size(); ++i)
+            cdf[i] = total_ > 0 ? cdf[i] / total_ : double(i) / double(w.size());
+        for (size_t i = 0; i < cdf.size(); ++i) {
+            const double width = i < w.size() ? cdf[i + 1] - cdf[i] : 0.0;
+            bins_[i] = {cdf[i], width > 0 ? 1.0 / width : 0.0};
         }
     }
-    size_t size() const { return invWidth_.size(); }
+    size_t size() const { return n_; }
     double total() const { return total_; }
     // Returns the bin i with cdf[i] <= u < cdf[i+1] (never a bin of zero weight); u is remapped
     // to [0,1) within the chosen bin.
     size_t sample(float u, float* remapped = nullptr) const {
-        size_t lo = 0, len = invWidth_.size();
+        const Bin* b = bins_.data();
+        size_t lo = 0, len = n_;
         while (len > 1) {
             size_t half = len / 2;
-            lo = cdf_[lo + half] <= double(u) ? lo + half : lo;
+            lo = b[lo + half].cdf <= double(u) ? lo + half : lo;
             len -= half;
         }
-        if (remapped) *remapped = float(std::min(0.99999994, (double(u) - cdf_[lo]) * invWidth_[lo]));
+        if (remapped) *remapped = float(std::min(0.99999994, (double(u) - b[lo].cdf) * b[lo].invWidth));
         return lo;
     }
-    float probability(size_t i) const { return float(cdf_[i + 1] - cdf_[i]); }
+    float probability(size_t i) const { return float(bins_[i + 1].cdf - bins_[i].cdf); }
 
 private:
-    std::vector<double> cdf_, invWidth_;
+    struct Bin {
+        double cdf;       // at the bin's start
+        double invWidth;  // 1 / (width of the bin), 0 for an empty bin
+    };
+    std::vector<Bin> bins_;  // the n bins and one record holding cdf = 1 (the last bin's end)
+    size_t n_ = 0;
     double total_ = 0;
 };
 

@@ -207,7 +207,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         lights_.push_back(l);
     }
     meshTriDist_.resize(desc_.meshes.size());
-    meshTris_.resize(desc_.meshes.size());
+    std::vector<size_t> emitterTriStart(desc_.meshes.size());
     for (size_t i = 0; i < desc_.meshes.size(); ++i) {
         const MeshDesc& m = desc_.meshes[i];
         if (m.emitter < 0) continue;
@@ -216,7 +216,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         l.meshIndex = int(i);
         // Each triangle ready for sampling, and its area for the choice between triangles.
         std::vector<float> areas(m.indices.size() / 3);
-        meshTris_[i].reserve(areas.size());
+        emitterTriStart[i] = emitterTris_.size();
         double total = 0;
         for (size_t t = 0; t < areas.size(); ++t) {
             const Vec3& a = m.positions[m.indices[3 * t]];
@@ -225,18 +225,24 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
             Vec3 n = glm::cross(b - a, c - a);
             float len = glm::length(n);
             total += (areas[t] = 0.5f * len);
-            meshTris_[i].push_back({a, b - a, c - a, len > 0.f ? n / len : Vec3(0.f)});
+            emitterTris_.push_back({a, b - a, c - a, len > 0.f ? n / len : Vec3(0.f)});
         }
         l.area = float(total);
         l.invArea = total > 0 ? float(1.0 / total) : 0.f;
         meshTriDist_[i] = Distribution1D(areas);
         meshLight_[i] = li;
     }
+    for (Light& l : lights_) {  // (the arrays no longer move)
+        if (l.meshIndex < 0) continue;
+        l.tris = emitterTris_.data() + emitterTriStart[l.meshIndex];
+        l.triDist = &meshTriDist_[l.meshIndex];
+    }
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
         const SphereDesc& s = desc_.spheres[i];
         if (s.emitter < 0) continue;
         int li = emitterToLight.at(s.emitter);
         lights_[li].sphereIndex = int(i);
+        lights_[li].sphere = &s;
         lights_[li].area = 4.f * kPi * s.radius * s.radius;
         lights_[li].invArea = lights_[li].area > 0.f ? 1.f / lights_[li].area : 0.f;
         sphereLight_[i] = li;
@@ -287,24 +293,16 @@ static void fillRay(RTCRay& r, const Ray& ray) {
 }
 
 namespace {
-// Vec3 <-> SSE. load3 reads 16 bytes: the caller guarantees 4 readable bytes after the Vec3.
-inline __m128 load3(const Vec3& v) { return _mm_loadu_ps(&v.x); }
+using sse::dot3;
+using sse::toVec3;
+// loadPadded3 reads 16 bytes: the caller guarantees 4 readable bytes after the Vec3.
+inline __m128 loadPadded3(const Vec3& v) { return _mm_loadu_ps(&v.x); }
 inline __m128 set3(const Vec3& v) { return _mm_setr_ps(v.x, v.y, v.z, 0.f); }
-inline Vec3 toVec3(__m128 v) {
-    alignas(16) float f[4];
-    _mm_store_ps(f, v);
-    return Vec3(f[0], f[1], f[2]);
-}
 // w0 a + w1 b + w2 c, per lane in the order glm's `b0 * p0 + b1 * p1 + b2 * p2` evaluates it
 // (the same floats).
 inline __m128 blend3(float w0, __m128 a, float w1, __m128 b, float w2, __m128 c) {
     return _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(w0), a), _mm_mul_ps(_mm_set1_ps(w1), b)),
                       _mm_mul_ps(_mm_set1_ps(w2), c));
-}
-// glm::dot's order: (x + y) + z of the products.
-inline float dot3(__m128 a, __m128 b) {
-    __m128 m = _mm_mul_ps(a, b);
-    return _mm_cvtss_f32(_mm_add_ss(_mm_add_ss(m, _mm_shuffle_ps(m, m, 1)), _mm_movehl_ps(m, m)));
 }
 }  // namespace
 
@@ -330,11 +328,11 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
         const size_t prim = rh.hit.primID;
         const MeshTri& tri = gi.tris[prim];  // the record after it (or the padding one) is readable
         const float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.f - b1 - b2;
-        p = blend3(b0, load3(tri.p0), b1, load3(tri.p1), b2, load3(tri.p2));  // barycentric: more accurate than o + t d
-        ns = ng = load3(tri.ng);
+        p = blend3(b0, loadPadded3(tri.p0), b1, loadPadded3(tri.p1), b2, loadPadded3(tri.p2));  // barycentric: more accurate than o + t d
+        ns = ng = loadPadded3(tri.ng);
         if (gi.normals) {
             const MeshTriNormals& tn = gi.normals[prim];
-            __m128 n = blend3(b0, load3(tn.n0), b1, load3(tn.n1), b2, load3(tn.n2));
+            __m128 n = blend3(b0, loadPadded3(tn.n0), b1, loadPadded3(tn.n1), b2, loadPadded3(tn.n2));
             float len = std::sqrt(dot3(n, n));
             if (len > 0.f && std::isfinite(len)) ns = _mm_div_ps(n, _mm_set1_ps(len));
         }
@@ -367,14 +365,30 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     return true;
 }
 
-Ray Scene::shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
-    // Both ends offset by the one rule (offsetPoint), unless not on a surface (zero normal).
-    const Vec3 a = n0 == Vec3(0.f) ? p0 : offsetPoint(p0, n0, p1 - p0);
-    const Vec3 b = n1 == Vec3(0.f) ? p1 : offsetPoint(p1, n1, p0 - p1);
-    const Vec3 d = b - a;
-    const float len = glm::length(d);
-    if (!(len > 0.f)) return Ray{a, Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
-    return Ray{a, d / len, 0.f, len * (1.f - 1e-5f)};
+Ray Scene::shadowRay(const Vec3& p0v, const Vec3& n0v, const Vec3& p1v, const Vec3& n1v) const {
+    const __m128 p0 = sse::load3(p0v), n0 = sse::load3(n0v), p1 = sse::load3(p1v), n1 = sse::load3(n1v);
+    // Both ends offset by the one rule, unless not on a surface (zero normal), each towards the
+    // other end. p0 - p1 == -(p1 - p0) up to the sign of zero components, so
+    // dot(p0 - p1, n1) >= 0 exactly when dot(p1 - p0, n1) <= 0 (a zero dot passes both; NaN neither).
+    const __m128 d01 = _mm_sub_ps(p1, p0);
+    const __m128 a = sse::isZero3(n0) ? p0 : offsetPoint(p0, n0, sse::dot3(d01, n0) >= 0.f);
+    const __m128 b = sse::isZero3(n1) ? p1 : offsetPoint(p1, n1, sse::dot3(d01, n1) <= 0.f);
+    const __m128 d = _mm_sub_ps(b, a);
+    const float len = std::sqrt(sse::dot3(d, d));
+    if (!(len > 0.f)) return Ray{sse::toVec3(a), Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
+    // (a, d.x) and (d.y, d.z, tMin = 0, tMax) as two whole vectors: the lanes of d / len, and of
+    // len (1 - 1e-5) masked to (0, tMax).
+    const __m128 lenV = _mm_set1_ps(len);
+    const __m128 dn = _mm_div_ps(d, lenV);
+    const __m128 tMax = _mm_and_ps(_mm_mul_ps(lenV, _mm_set1_ps(1.f - 1e-5f)),
+                                   _mm_castsi128_ps(_mm_setr_epi32(0, -1, 0, 0)));   // 0 tMax 0 0
+    const __m128 a2d0 = _mm_shuffle_ps(a, dn, _MM_SHUFFLE(0, 0, 2, 2));              // a.z a.z d.x d.x
+    const __m128 v[2] = {_mm_shuffle_ps(a, a2d0, _MM_SHUFFLE(2, 0, 1, 0)),           // a.x a.y a.z d.x
+                         _mm_shuffle_ps(dn, tMax, _MM_SHUFFLE(1, 0, 2, 1))};         // d.y d.z 0 tMax
+    Ray r;
+    static_assert(sizeof(Ray) == sizeof(v));
+    std::memcpy(&r, v, sizeof(r));
+    return r;
 }
 
 bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
@@ -391,22 +405,6 @@ bool Scene::occludedRay(const Ray& r) const {
     fillRay(rr, r);
     rtcOccluded1(scene_, &ctx, &rr);
     return rr.tfar < 0.f;
-}
-
-void Scene::sampleAreaLight(const Light& l, const Vec2& uIn, Vec3& p, Vec3& n) const {
-    Vec2 u = uIn;
-    if (l.sphereIndex >= 0) {
-        const SphereDesc& s = desc_.spheres[l.sphereIndex];
-        Vec3 d = sampleUniformSphere(u);
-        p = s.center + s.radius * d;
-        n = s.flipNormals ? -d : d;
-        return;
-    }
-    size_t tri = meshTriDist_[l.meshIndex].sample(u.x, &u.x);  // u.x reused, remapped within the bin
-    const EmitterTriangle& et = meshTris_[l.meshIndex][tri];
-    Vec2 bc = sampleUniformTriangle(u);
-    p = et.p0 + bc.x * et.e1 + bc.y * et.e2;
-    n = et.n;
 }
 
 }  // namespace lt

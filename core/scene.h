@@ -2,6 +2,7 @@
 // geometry), materials, lights, camera. Ray offsets avoid self-intersection at any scene scale.
 #pragma once
 #include <embree3/rtcore.h>
+#include <immintrin.h>
 #include <memory>
 #include <vector>
 #include "core/camera.h"
@@ -11,6 +12,31 @@
 #include "core/scene_desc.h"
 
 namespace lt {
+
+// Vec3 on SSE lanes (x, y, z, 0), computing what the glm expressions named compute, float for float.
+namespace sse {
+// Reads exactly the Vec3's 12 bytes (it may be the last thing in its allocation).
+inline __m128 load3(const Vec3& v) {
+    return _mm_movelh_ps(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(&v.x))), _mm_load_ss(&v.z));
+}
+inline Vec3 toVec3(__m128 v) {
+    alignas(16) float f[4];
+    _mm_store_ps(f, v);
+    return Vec3(f[0], f[1], f[2]);
+}
+// maxAbs: std::max(|x|, std::max(|y|, |z|)); std::max(u, v) is maxss(v, u), NaN cases included.
+inline float maxAbs3(__m128 v) {
+    const __m128 a = _mm_and_ps(v, _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff)));
+    return _mm_cvtss_f32(_mm_max_ss(_mm_max_ss(_mm_movehl_ps(a, a), _mm_shuffle_ps(a, a, 1)), a));
+}
+// glm::dot's order: (x + y) + z of the products.
+inline float dot3(__m128 a, __m128 b) {
+    const __m128 m = _mm_mul_ps(a, b);
+    return _mm_cvtss_f32(_mm_add_ss(_mm_add_ss(m, _mm_shuffle_ps(m, m, 1)), _mm_movehl_ps(m, m)));
+}
+// v == Vec3(0) (+0 or -0 in x, y and z) for v from load3 (lane 3 is 0).
+inline bool isZero3(__m128 v) { return _mm_movemask_ps(_mm_cmpeq_ps(v, _mm_setzero_ps())) == 15; }
+}  // namespace sse
 
 struct SphereGeom {
     double cx, cy, cz, r;
@@ -55,10 +81,14 @@ public:
         return Ray{offsetPoint(p, ng, d), d, 0.f, kInf};
     }
     Vec3 offsetPoint(const Vec3& p, const Vec3& ng, const Vec3& towards) const {
+        return sse::toVec3(offsetPoint(sse::load3(p), sse::load3(ng), glm::dot(towards, ng) >= 0.f));
+    }
+    // The offset rule itself, on SSE lanes x, y, z (lane 3: p3 + eps ng3), to the side of +ng or -ng.
+    __m128 offsetPoint(__m128 p, __m128 ng, bool positiveSide) const {
         // Float error of a hit point is proportional to its coordinates' magnitude; the second term
         // covers points near the origin. Both scale with the scene. p - eps ng == p + (-eps) ng exactly.
-        float eps = 8e-6f * maxAbs(p) + offsetScale_;
-        return p + (glm::dot(towards, ng) >= 0.f ? eps : -eps) * ng;
+        const float eps = 8e-6f * sse::maxAbs3(p) + offsetScale_;
+        return _mm_add_ps(p, _mm_mul_ps(_mm_set1_ps(positiveSide ? eps : -eps), ng));
     }
 
     const Camera& camera() const { return *camera_; }
@@ -70,9 +100,6 @@ public:
     Vec3 boundsCenter() const { return center_; }
     float boundsRadius() const { return radius_; }           // geometry and camera
     float geometryRadius() const { return geometryRadius_; }  // geometry only (merge radius default)
-
-    // Uniform point on the shape of an area light: position, normal.
-    void sampleAreaLight(const Light& l, const Vec2& u, Vec3& p, Vec3& n) const;
 
     const SceneDesc& desc() const { return desc_; }
     size_t triangleCount() const { return triangleCount_; }
@@ -106,15 +133,14 @@ private:
         bool deltaBsdf = false;
         float roughness = 1.f;
     };
-    // An emitting triangle, ready for sampling: p = p0 + b1 e1 + b2 e2, unit normal n.
-    struct EmitterTriangle { Vec3 p0, e1, e2, n; };
     HugeVector<MeshTri> tris_;                // all meshes, in geometry order, + 1 padding record
     HugeVector<MeshTriNormals> triNormals_;   // meshes with vertex normals, + 1 padding record
     std::vector<SphereGeom> spheres_;  // user data of the Embree sphere geometries (double precision)
     std::vector<GeomInfo> geoms_;                  // by Embree geomID
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
-    std::vector<Distribution1D> meshTriDist_;      // area-proportional triangle choice per emitter mesh
-    std::vector<std::vector<EmitterTriangle>> meshTris_;  // per emitter mesh
+    // Emitting meshes: their triangles (all, in mesh order) and the choice between them (per mesh).
+    std::vector<EmitterTriangle> emitterTris_;
+    std::vector<Distribution1D> meshTriDist_;
     Vec3 center_{0.f};
     float radius_ = 1.f, geometryRadius_ = 1.f;
     float offsetScale_ = 0.f;  // scene-relative part of the ray offset
