@@ -34,12 +34,17 @@ inline LightSampleLi Light::areaSampleLi(const AreaPoint& a, const Vec3& refP) c
     return {a.p, a.n, Vec3(0.f), glm::dot(a.n, d) > 0.f ? value : Color(0.f), AreaPdf(invArea)};
 }
 
-// Each case returns its sample as one prvalue (constructed in place, every field once).
 LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const {
+    // Mesh area lights on their own: that path calls nothing, so it runs without the register
+    // saves and stack frame of the other cases (a separate function, not inlined here).
+    if (type == LightType::Area && !sphere) return areaSampleLi(sampleMesh(u), refP);
+    return sampleLiOther(scene, refP, u);
+}
+
+// Each case returns its sample as one prvalue (constructed in place, every field once).
+LightSampleLi Light::sampleLiOther(const Scene& scene, const Vec3& refP, const Vec2& u) const {
     switch (type) {
-        case LightType::Area:
-            // (Not through sampleArea: the two paths do not merge, the mesh's point stays in registers.)
-            return sphere ? areaSampleLi(sampleSphere(u), refP) : areaSampleLi(sampleMesh(u), refP);
+        case LightType::Area: return areaSampleLi(sampleSphere(u), refP);
         case LightType::Point:
         case LightType::Spot: {
             const Vec3 d = position - refP;

@@ -94,6 +94,8 @@ private:
     AreaPoint sampleSphere(const Vec2& u) const;
     // sampleLi's sample for an area light's point a.
     LightSampleLi areaSampleLi(const AreaPoint& a, const Vec3& refP) const;
+    // sampleLi for all but mesh area lights.
+    [[gnu::noinline]] LightSampleLi sampleLiOther(const Scene& scene, const Vec3& refP, const Vec2& u) const;
 };
 
 }  // namespace lt
