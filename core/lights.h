@@ -41,8 +41,8 @@ class Light {
 public:
     LightType type;
     Color value{0.f};
-    // Area lights: the shape, a mesh or a sphere (indices into the scene description).
-    int meshIndex = -1, sphereIndex = -1;
+    // Mesh area lights: the mesh (index into the scene description).
+    int meshIndex = -1;
     // What sampling a point on the shape reads, set by the scene (which owns it): a mesh's
     // triangles with the area-proportional choice between them, or the sphere.
     const EmitterTriangle* tris = nullptr;

@@ -346,7 +346,7 @@ bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVerte
     // Every field is written (no default construction first: this is called per camera vertex).
     out.kind = VertexKind::Light;
     out.p = ls.p;
-    out.ng = l.type == LightType::Area ? ls.n : Vec3(0.f);
+    out.ng = ls.n;  // zero but for area lights
     out.shading = Frame();
     out.wo = Vec3(0.f);
     out.bxdf = nullptr;

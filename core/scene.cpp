@@ -241,7 +241,6 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         const SphereDesc& s = desc_.spheres[i];
         if (s.emitter < 0) continue;
         int li = emitterToLight.at(s.emitter);
-        lights_[li].sphereIndex = int(i);
         lights_[li].sphere = &s;
         lights_[li].area = 4.f * kPi * s.radius * s.radius;
         lights_[li].invArea = lights_[li].area > 0.f ? 1.f / lights_[li].area : 0.f;
@@ -391,13 +390,6 @@ Ray Scene::shadowRay(const Vec3& p0v, const Vec3& n0v, const Vec3& p1v, const Ve
     return r;
 }
 
-bool Scene::occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
-    Ray r = shadowRay(p0, n0, p1, n1);
-    return r.tMax > 0.f && occludedRay(r);
-}
-bool Scene::occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
-    return occludedRay(shadowRayInfinite(p0, n0, dir));
-}
 bool Scene::occludedRay(const Ray& r) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);

@@ -63,13 +63,12 @@ public:
     Scene& operator=(const Scene&) = delete;
 
     bool intersect(const Ray& ray, SurfaceHit& hit) const;
-    // Is the segment between two surface points (with geometric normals; zero normal = not on a
-    // surface, e.g. a point light) blocked? Both ends are offset, so the surfaces themselves never count.
-    bool occluded(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
-    // A ray towards infinity (direction dir) from a surface point.
-    bool occludedInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const;
+    // Is anything hit on the ray's [tMin, tMax]? (For the shadow rays below.)
     bool occludedRay(const Ray& r) const;
-    // The shadow rays `occluded` and `occludedInfinite` cast (tMax = 0: degenerate, nothing to cast).
+    // The shadow ray of the segment between two surface points (with geometric normals; zero
+    // normal = not on a surface, e.g. a point light): both ends are offset, so the surfaces
+    // themselves never count (tMax = 0: degenerate, nothing to cast). shadowRayInfinite: the ray
+    // towards infinity (direction dir) from a surface point.
     Ray shadowRay(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
     Ray shadowRayInfinite(const Vec3& p0, const Vec3& n0, const Vec3& dir) const {
         return (n0 == Vec3(0.f)) ? Ray{p0, dir} : spawnRay(p0, n0, dir);
