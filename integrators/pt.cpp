@@ -43,7 +43,9 @@ public:
         Connection conn;
     };
 
-    Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z, Scratch& w,
+    // Flattened: sampleLightVertex, connect and the MIS weight (core/path_inline.h) are compiled
+    // into this loop, specialised for s = 1, readLimit = 0 and a light endpoint.
+    [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z, Scratch& w,
                    WalkStats& stats) const {
         int nz = cameraWalk(scene, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats, WalkPdfs::EmitterHits);
         Color L(0.f);
