@@ -178,6 +178,11 @@ struct Connection {
 // Returns false when the connection carries nothing.
 // Only the densities up to index readLimit (misReadLimit) are gathered or recomputed, and the delta
 // flags up to readLimit + 1.
+// `ends` is what the call site knows at compile time (one routine; the tests it makes redundant
+// fold away): LightToSurface is next-event estimation, s = 1 with y[0] a light endpoint
+// (sampleLightVertex) and z[t-1] a surface vertex the caller found connectible and not at infinity.
+enum class ConnectEnds { Any, LightToSurface };
+template <ConnectEnds ends = ConnectEnds::Any>
 inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
                     WalkStats& stats, int readLimit = kMaxPathVertices);
 

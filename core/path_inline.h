@@ -109,13 +109,18 @@ inline bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, Pa
     return true;
 }
 
+template <ConnectEnds ends>
 inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
                     WalkStats& stats, int readLimit) {
     const PathVertex& a = y[s - 1];  // light side
     const PathVertex& b = z[t - 1];  // camera side
-    const bool toCamera = b.kind == VertexKind::Camera;
-    if (!toCamera && (b.kind != VertexKind::Surface || b.infinite || !b.connectible())) return false;
-    if (a.kind == VertexKind::Surface && !a.connectible()) return false;
+    // The vertex kinds, constant at a next-event estimation site (the tests on them fold away).
+    constexpr bool nee = ends == ConnectEnds::LightToSurface;
+    const bool aLight = nee || a.kind == VertexKind::Light;
+    const bool aSurface = !nee && a.kind == VertexKind::Surface;
+    const bool toCamera = !nee && b.kind == VertexKind::Camera;
+    if (!nee && !toCamera && (b.kind != VertexKind::Surface || b.infinite || !b.connectible())) return false;
+    if (aSurface && !a.connectible()) return false;
     if (toCamera && a.infinite) return false;
     Vec3 d = a.p - b.p;
     const float abDist2 = glm::dot(d, d);  // the segment's squared length, for the densities
@@ -141,20 +146,23 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
     if (isBlack(eb.f)) return false;
     Color fa;
     BsdfEval ea;
-    if (a.kind == VertexKind::Light) {
+    if (aLight) {
         fa = detail::lightEndpointValue(a, -wBA);
     } else {
         ea = a.bsdf().eval(a.wo, -wBA, TransportMode::Importance);
         fa = ea.f;
     }
     if (isBlack(fa)) return false;
-    float cosA = (a.kind == VertexKind::Surface) ? std::abs(glm::dot(a.shading.n, wBA))
-                 : a.onSurface()                 ? std::abs(glm::dot(a.ng, wBA))
+    float cosA = aSurface                                 ? std::abs(glm::dot(a.shading.n, wBA))
+                 : aLight && a.ng != Vec3(0.f) ? std::abs(glm::dot(a.ng, wBA))  // a.onSurface()
                                                  : 1.f;
     Color contrib = a.beta * fa * (cosA * cosB / dist2) * eb.f * b.beta;
     if (isBlack(contrib)) return false;
     // (for the camera b.ng is zero: the shadow ray starts exactly at the pinhole)
-    Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, a.p, a.ng);
+    // (a's position and normal passed as copies: a reference would make the whole of y escape
+    // into the call, so that every field the caller stored must stay in memory.)
+    const Vec3 ap = a.p, ang = a.ng;
+    Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, ap, ang);
     if (shadow.tMax > 0.f) {
         ++stats.rays;
         if (stats.log) stats.log->shadow.push_back(shadow);
@@ -172,10 +180,10 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
     if (s - 1 <= readLimit) P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, a, wBA, abDist2).value;
     if (s >= 2 && s - 2 <= readLimit)
         P.fromCamera[s - 2] = convertDensity(ea.pdfRev, y[s - 2], a.wo, sqr(a.segmentLength)).value;
-    if (a.kind == VertexKind::Light) P.delta[s - 1] = false;
+    if (aLight) P.delta[s - 1] = false;
     if (s <= readLimit)
-        P.fromLight[s] = a.kind == VertexKind::Light ? detail::emissionDensity(scene, a, -wBA, b, abDist2).value
-                                                     : convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
+        P.fromLight[s] = aLight ? detail::emissionDensity(scene, a, -wBA, b, abDist2).value
+                                : convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
     if (t >= 2 && s + 1 <= readLimit)
         P.fromLight[s + 1] = convertDensity(eb.pdfRev, z[t - 2], b.wo, sqr(b.segmentLength)).value;
     c.contribution = contrib;
