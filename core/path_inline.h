@@ -159,10 +159,7 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
     Color contrib = a.beta * fa * (cosA * cosB / dist2) * eb.f * b.beta;
     if (isBlack(contrib)) return false;
     // (for the camera b.ng is zero: the shadow ray starts exactly at the pinhole)
-    // (a's position and normal passed as copies: a reference would make the whole of y escape
-    // into the call, so that every field the caller stored must stay in memory.)
-    const Vec3 ap = a.p, ang = a.ng;
-    Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, ap, ang);
+    Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, a.p, a.ng);
     if (shadow.tMax > 0.f) {
         ++stats.rays;
         if (stats.log) stats.log->shadow.push_back(shadow);
