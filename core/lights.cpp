@@ -11,34 +11,11 @@ float Light::spotFalloff(const Vec3& w) const {
     return std::clamp((cutoff - angle) / std::max(cutoff - beamWidth, 1e-7f), 0.f, 1.f);
 }
 
-// A uniform point on an area light's shape. The mesh path is inline in the samplers: the point
-// stays in registers (the sphere's is a call).
-inline Light::AreaPoint Light::sampleMesh(const Vec2& uIn) const {
-    Vec2 u = uIn;
-    const EmitterTriangle& et = tris[triDist->sample(u.x, &u.x)];  // u.x reused, remapped within the bin
-    const Vec2 bc = sampleUniformTriangle(u);
-    return {et.p0 + bc.x * et.e1 + bc.y * et.e2, et.n};
-}
 inline Light::AreaPoint Light::sampleArea(const Vec2& u) const { return sphere ? sampleSphere(u) : sampleMesh(u); }
 
 Light::AreaPoint Light::sampleSphere(const Vec2& u) const {
     const Vec3 d = sampleUniformSphere(u);
     return {sphere->center + sphere->radius * d, sphere->flipNormals ? -d : d};
-}
-
-// Only the side matters for the one-sided emission: no normalised direction needed (the
-// connection computes the unit direction and the distance once).
-inline LightSampleLi Light::areaSampleLi(const AreaPoint& a, const Vec3& refP) const {
-    const Vec3 d = refP - a.p;
-    if (!(glm::dot(d, d) > 0.f)) return {};
-    return {a.p, a.n, Vec3(0.f), glm::dot(a.n, d) > 0.f ? value : Color(0.f), AreaPdf(invArea)};
-}
-
-LightSampleLi Light::sampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const {
-    // Mesh area lights on their own: that path calls nothing, so it runs without the register
-    // saves and stack frame of the other cases (a separate function, not inlined here).
-    if (type == LightType::Area && !sphere) return areaSampleLi(sampleMesh(u), refP);
-    return sampleLiOther(scene, refP, u);
 }
 
 // Each case returns its sample as one prvalue (constructed in place, every field once).

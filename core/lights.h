@@ -71,7 +71,12 @@ public:
     // Spot intensity profile (1 inside the beam, falling linearly in angle to 0 at the cutoff).
     float spotFalloff(const Vec3& wFromLight) const;
 
-    LightSampleLi sampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const;
+    // Mesh area lights inline (the NEE sample goes straight into the caller's light vertex, see
+    // sampleLightVertex); every other light type through the call sampleLiOther.
+    LightSampleLi sampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const {
+        if (type == LightType::Area && !sphere) return areaSampleLi(sampleMesh(u), refP);
+        return sampleLiOther(scene, refP, u);
+    }
     // Density with which sampleLi picks point p (normal n) seen from refP, in the same measure as
     // sampleLi's pdfPos. For infinite lights `p` is ignored and `wi` (ref -> light) is used.
     AreaPdf pdfLi(const Scene& scene, const Vec3& refP, const Vec3& p, const Vec3& n, const Vec3& wi) const;
@@ -90,10 +95,21 @@ private:
         Vec3 p, n;
     };
     AreaPoint sampleArea(const Vec2& u) const;
-    AreaPoint sampleMesh(const Vec2& u) const;
+    AreaPoint sampleMesh(const Vec2& uIn) const {
+        Vec2 u = uIn;
+        const EmitterTriangle& et = tris[triDist->sample(u.x, &u.x)];  // u.x reused, remapped within the bin
+        const Vec2 bc = sampleUniformTriangle(u);
+        return {et.p0 + bc.x * et.e1 + bc.y * et.e2, et.n};
+    }
     AreaPoint sampleSphere(const Vec2& u) const;
-    // sampleLi's sample for an area light's point a.
-    LightSampleLi areaSampleLi(const AreaPoint& a, const Vec3& refP) const;
+    // sampleLi's sample for an area light's point a. Only the side matters for the one-sided
+    // emission: no normalised direction needed (the connection computes the unit direction and
+    // the distance once).
+    LightSampleLi areaSampleLi(const AreaPoint& a, const Vec3& refP) const {
+        const Vec3 d = refP - a.p;
+        if (!(glm::dot(d, d) > 0.f)) return {};
+        return {a.p, a.n, Vec3(0.f), glm::dot(a.n, d) > 0.f ? value : Color(0.f), AreaPdf(invArea)};
+    }
     // sampleLi for all but mesh area lights.
     [[gnu::noinline]] LightSampleLi sampleLiOther(const Scene& scene, const Vec3& refP, const Vec2& u) const;
 };

@@ -146,7 +146,8 @@ struct PathPdfs {
 float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 // Weight of the merge technique at x_i.
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg);
-inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) { return misWeight(pdfs, s, MisConfig{set}); }
+// (Inline, core/path_inline.h: the path tracer's closed form without a call.)
+inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set);
 // misWeight with the plain sum over techniques always (misWeight takes a closed form for the path
 // tracer's two techniques); for the tests that check the fast forms against the plain one.
 float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg);
@@ -164,7 +165,7 @@ inline int misReadLimit(const MisConfig& cfg) {
 
 // ---- Connection ----------------------------------------------------------------------------
 // A light endpoint for next-event estimation (technique s = 1), sampled from the scene's lights.
-bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVertex& out);
+inline bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVertex& out);
 
 struct Connection {
     Color contribution{0.f};  // unweighted: beta_y * f_y * G * f_z * beta_z, visibility included
@@ -177,8 +178,13 @@ struct Connection {
 // Returns false when the connection carries nothing.
 // Only the densities up to index readLimit (misReadLimit) are gathered or recomputed, and the delta
 // flags up to readLimit + 1.
-bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
-             WalkStats& stats, int readLimit = kMaxPathVertices);
+// `ends` is what the call site knows at compile time (one routine; the tests it makes redundant
+// fold away): LightToSurface is next-event estimation, s = 1 with y[0] a light endpoint
+// (sampleLightVertex) and z[t-1] a surface vertex the caller found connectible and not at infinity.
+enum class ConnectEnds { Any, LightToSurface };
+template <ConnectEnds ends = ConnectEnds::Any>
+inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
+                    WalkStats& stats, int readLimit = kMaxPathVertices);
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
 // fills the pdfs.
@@ -210,7 +216,9 @@ double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double 
 
 // Gathers the pdfs of the camera subpath z[0..t-1] into pdfs (x indices s..s+t-1, those above
 // readLimit + 1 skipped: see misReadLimit), n = s + t.
-void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
-void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
+inline void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
+inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
 
 }  // namespace lt
+
+#include "core/path_inline.h"  // the inline definitions of sampleLightVertex, connect, the gathers

@@ -364,32 +364,6 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     return true;
 }
 
-Ray Scene::shadowRay(const Vec3& p0v, const Vec3& n0v, const Vec3& p1v, const Vec3& n1v) const {
-    const __m128 p0 = sse::load3(p0v), n0 = sse::load3(n0v), p1 = sse::load3(p1v), n1 = sse::load3(n1v);
-    // Both ends offset by the one rule, unless not on a surface (zero normal), each towards the
-    // other end. p0 - p1 == -(p1 - p0) up to the sign of zero components, so
-    // dot(p0 - p1, n1) >= 0 exactly when dot(p1 - p0, n1) <= 0 (a zero dot passes both; NaN neither).
-    const __m128 d01 = _mm_sub_ps(p1, p0);
-    const __m128 a = sse::isZero3(n0) ? p0 : offsetPoint(p0, n0, sse::dot3(d01, n0) >= 0.f);
-    const __m128 b = sse::isZero3(n1) ? p1 : offsetPoint(p1, n1, sse::dot3(d01, n1) <= 0.f);
-    const __m128 d = _mm_sub_ps(b, a);
-    const float len = std::sqrt(sse::dot3(d, d));
-    if (!(len > 0.f)) return Ray{sse::toVec3(a), Vec3(0.f, 0.f, 1.f), 0.f, 0.f};
-    // (a, d.x) and (d.y, d.z, tMin = 0, tMax) as two whole vectors: the lanes of d / len, and of
-    // len (1 - 1e-5) masked to (0, tMax).
-    const __m128 lenV = _mm_set1_ps(len);
-    const __m128 dn = _mm_div_ps(d, lenV);
-    const __m128 tMax = _mm_and_ps(_mm_mul_ps(lenV, _mm_set1_ps(1.f - 1e-5f)),
-                                   _mm_castsi128_ps(_mm_setr_epi32(0, -1, 0, 0)));   // 0 tMax 0 0
-    const __m128 a2d0 = _mm_shuffle_ps(a, dn, _MM_SHUFFLE(0, 0, 2, 2));              // a.z a.z d.x d.x
-    const __m128 v[2] = {_mm_shuffle_ps(a, a2d0, _MM_SHUFFLE(2, 0, 1, 0)),           // a.x a.y a.z d.x
-                         _mm_shuffle_ps(dn, tMax, _MM_SHUFFLE(1, 0, 2, 1))};         // d.y d.z 0 tMax
-    Ray r;
-    static_assert(sizeof(Ray) == sizeof(v));
-    std::memcpy(&r, v, sizeof(r));
-    return r;
-}
-
 bool Scene::occludedRay(const Ray& r) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);

@@ -21,35 +21,27 @@ public:
                     WalkStats& stats) const override {
         // Camera subpath: the camera plus at most max_depth surface vertices.
         int maxDepth = settings_.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(settings_.maxDepth, kMaxPathVertices - 2);
-        // Work records made once per tile (not per sample): the walk's vertices, the light vertex of
-        // each NEE connection (sampleLightVertex writes every field), the connection record and the
-        // emitter hits' pdfs (written before they are read).
+        // Work records made once per tile (not per sample): the walk's vertices and the emitter hits'
+        // pdfs (written before they are read).
         std::array<PathVertex, kMaxPathVertices> z;
-        Scratch w;
+        PathPdfs pdfs;
         for (int y = y0; y < y1; ++y)
             for (int x = x0; x < x1; ++x) {
                 uint64_t pixel = uint64_t(y) * film.width() + x;
                 Rng rng = Rng::forSample(settings_.seed, pixel, pass);
                 Vec2 raster = Vec2(float(x), float(y)) + film.samplePixelOffset(rng.uniform2());
-                Color L = radiance(scene, raster, rng, maxDepth, z.data(), w, stats);
+                Color L = radiance(scene, raster, rng, maxDepth, z.data(), pdfs, stats);
                 film.addSample(x, y, L);
                 film.addSampleCount(x, y, 1);
             }
     }
 
-    struct Scratch {
-        PathPdfs pdfs;
-        PathVertex y;
-        Connection conn;
-    };
-
-    Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z, Scratch& w,
-                   WalkStats& stats) const {
+    // Flattened: sampleLightVertex, connect and the MIS weight (core/path_inline.h) are compiled
+    // into this loop, specialised for s = 1, readLimit = 0 and its known ends (ConnectEnds).
+    [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z,
+                                    PathPdfs& pdfs, WalkStats& stats) const {
         int nz = cameraWalk(scene, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats, WalkPdfs::EmitterHits);
         Color L(0.f);
-        PathPdfs& pdfs = w.pdfs;
-        PathVertex& y = w.y;
-        Connection& conn = w.conn;
         const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
         for (int t = 2; t <= nz; ++t) {
             const PathVertex& v = z[t - 1];
@@ -62,7 +54,12 @@ public:
             }
             // s = 1: next-event estimation (t segments).
             if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && v.connectible()) {
-                if (sampleLightVertex(scene, v.p, rng, y) && connect(scene, &y, 1, z, t, conn, stats, readLimit))
+                // Locals no call sees (the chain is inline): their default initialisation and the
+                // fields connect does not read are dropped by the compiler, the rest stay in registers.
+                PathVertex y;
+                Connection conn;
+                if (sampleLightVertex(scene, v.p, rng, y) &&
+                    connect<ConnectEnds::LightToSurface>(scene, &y, 1, z, t, conn, stats, readLimit))
                     L += conn.contribution *
                          (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
             }

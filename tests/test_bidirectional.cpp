@@ -351,6 +351,17 @@ TEST_CASE("MIS: the path tracer's limited walk and gather give the full-gather w
             bool okA = connect(scene, &light, 1, zFull.data(), t, a, ws);
             bool okB = connect(scene, &light, 1, zFast.data(), t, b, ws, limit);
             REQUIRE(okA == okB);
+            // The path tracer's call: the same routine specialised for its known ends.
+            if (!zFast[t - 1].infinite && zFast[t - 1].connectible()) {
+                Connection c;
+                poison(c.pdfs);
+                bool okC = connect<ConnectEnds::LightToSurface>(scene, &light, 1, zFast.data(), t, c, ws, limit);
+                REQUIRE(okC == okB);
+                if (okC) {
+                    CHECK(c.contribution == b.contribution);
+                    CHECK(misWeight(c.pdfs, 1, TechniqueSet::PathTracer) == misWeight(b.pdfs, 1, cfg));
+                }
+            }
             if (!okA) continue;
             CHECK(misWeight(a.pdfs, 1, cfg) == misWeight(b.pdfs, 1, cfg));
             CHECK(std::isfinite(misWeight(b.pdfs, 1, cfg)));

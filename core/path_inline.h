@@ -1,0 +1,190 @@
+// Inline definitions of the per-sample routines of core/path.h that the path tracer calls per
+// camera vertex (NEE: sampleLightVertex, connect, the pdf gathers, the path tracer's MIS weight).
+// In a header so that the compiler specialises them per call site: at the path tracer's call
+// (integrators/pt.cpp) s = 1, readLimit = 0 and the light endpoint are known, and the light
+// sample goes straight into the vertex. Included at the end of core/path.h.
+#pragma once
+
+namespace lt {
+
+namespace detail {
+
+// A density stored as 0 marks a vertex sampled through a delta lobe (or an entry a walk could not
+// fill); in the MIS ratios it counts as 1: the delta factor is common to every technique that can
+// sample such a path.
+inline double remapDensity(float p) { return p != 0.f ? double(p) : 1.0; }
+
+// The MIS sum (see misSumGeneral in path.cpp) for the path tracer's two techniques (s = 0: emitter
+// hit, s = 1: NEE), which compare only x_0's two densities: the terms the plain sum adds for
+// k = 0 and k = 1, in closed form. Checked against the plain sum in tests/test_bidirectional.cpp.
+inline double misSumPathTracer(const PathPdfs& pdfs, int base) {
+    const int n = pdfs.n;
+    const bool valid0 = n >= 2 && pdfs.lightHittable;
+    const bool valid1 = n >= 3 && !pdfs.delta[0] && !pdfs.delta[1];
+    const double r = remapDensity(pdfs.fromLight[0]) / remapDensity(pdfs.fromCamera[0]);  // p_1 / p_0
+    if (base == 0) return (valid0 ? 1.0 : 0.0) + (valid1 ? r * r : 0.0);
+    return (valid1 ? 1.0 : 0.0) + (valid0 ? 1.0 / (r * r) : 0.0);
+}
+
+// Area density at `to` of the emission of light endpoint `lv` travelling in direction travelDir
+// (unit; dist2: squared distance between the two).
+inline AreaPdf emissionDensity(const Scene& scene, const PathVertex& lv, const Vec3& travelDir, const PathVertex& to,
+                              float dist2) {
+    const Light& l = *lv.light;
+    if (l.isInfinite())  // position on the scene's disk, projected onto the receiving surface
+        return AreaPdf(l.pdfLePos(scene).value * (to.onSurface() ? std::abs(glm::dot(to.ng, travelDir)) : 1.f));
+    return convertDensity(l.pdfLeDir(lv.ng, travelDir), to, travelDir, dist2);
+}
+
+// Value a light endpoint sends towards direction w (radiance, intensity or irradiance).
+inline Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
+    const Light& l = *a.light;
+    switch (l.type) {
+        case LightType::Area: return l.Le(a.ng, w);
+        case LightType::Spot: return l.value * l.spotFalloff(w);
+        default: return l.value;
+    }
+}
+
+}  // namespace detail
+
+inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) {
+    // The path tracer's closed form here (as misWeight(pdfs, s, cfg) takes it), the rest out of line.
+    if (set == TechniqueSet::PathTracer && s <= 1 && pdfs.belowBase < 0.0 && pdfs.aboveBase < 0.0) {
+        const double sum = detail::misSumPathTracer(pdfs, s);
+        return sum > 0.0 ? float(1.0 / sum) : 0.f;
+    }
+    return misWeight(pdfs, s, MisConfig{set});
+}
+
+inline void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit) {
+    pdfs.n = s + t;
+    // Entries up to readLimit + 1: the density there is not read, the delta flag is (cheap to copy).
+    const int limit = readLimit < kMaxPathVertices ? readLimit + 1 : readLimit;
+    for (int j = std::max(0, s + t - 1 - limit); j < t; ++j) {
+        int i = s + t - 1 - j;
+        pdfs.fromCamera[i] = z[j].pdfFwd.value;
+        pdfs.fromLight[i] = z[j].pdfRev.value;
+        pdfs.delta[i] = z[j].delta;
+    }
+}
+
+inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs) {
+    for (int i = 0; i < s; ++i) {
+        pdfs.fromLight[i] = y[i].pdfFwd.value;
+        pdfs.fromCamera[i] = y[i].pdfRev.value;
+        pdfs.delta[i] = y[i].delta;
+    }
+    pdfs.lightHittable = s > 0 && y[0].light && y[0].light->isHittable();
+}
+
+inline bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVertex& out) {
+    if (scene.lights().empty()) return false;
+    float uSel = rng.uniform();
+    Vec2 u = rng.uniform2();
+    size_t li = scene.lightDistribution().sample(uSel);
+    const Light& l = scene.lights()[li];
+    float sel = scene.lightDistribution().probability(li);
+    LightSampleLi ls = l.sampleLi(scene, refP, u);
+    if (!(ls.pdfPos.value > 0.f) || !(sel > 0.f) || isBlack(ls.value)) return false;
+    // Every field is written (no default construction first: this is called per camera vertex).
+    out.kind = VertexKind::Light;
+    out.p = ls.p;
+    out.ng = ls.n;  // zero but for area lights
+    out.shading = Frame();
+    out.wo = Vec3(0.f);
+    out.bxdf = nullptr;
+    out.light = &l;
+    out.beta = Color(1.f / (sel * ls.pdfPos.value));
+    out.pdfFwd = AreaPdf(sel * ls.pdfPos.value);
+    out.pdfRev = AreaPdf(0.f);
+    out.lobe = kNone;
+    out.delta = false;
+    out.infinite = l.isInfinite();
+    out.deltaBsdf = false;
+    out.depth = 0;
+    out.roughness = 1.f;
+    out.segmentLength = 0.f;
+    out.pathLength = 0.f;
+    return true;
+}
+
+template <ConnectEnds ends>
+inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
+                    WalkStats& stats, int readLimit) {
+    const PathVertex& a = y[s - 1];  // light side
+    const PathVertex& b = z[t - 1];  // camera side
+    // The vertex kinds, constant at a next-event estimation site (the tests on them fold away).
+    constexpr bool nee = ends == ConnectEnds::LightToSurface;
+    const bool aLight = nee || a.kind == VertexKind::Light;
+    const bool aSurface = !nee && a.kind == VertexKind::Surface;
+    const bool toCamera = !nee && b.kind == VertexKind::Camera;
+    if (!nee && !toCamera && (b.kind != VertexKind::Surface || b.infinite || !b.connectible())) return false;
+    if (aSurface && !a.connectible()) return false;
+    if (toCamera && a.infinite) return false;
+    Vec3 d = a.p - b.p;
+    const float abDist2 = glm::dot(d, d);  // the segment's squared length, for the densities
+    if (!(abDist2 > 0.f)) return false;
+    Vec3 wBA = d / std::sqrt(abDist2);
+    const float dist2 = a.infinite ? 1.f : abDist2;  // in the geometry term
+
+    BsdfEval eb;
+    float cosB;
+    if (toCamera) {
+        // Light tracing: the camera's importance and the raster position of a.
+        const Camera& cam = scene.camera();
+        auto raster = cam.rasterPosition(a.p);
+        if (!raster) return false;
+        c.raster = *raster;
+        eb.f = Color(cam.importance(wBA));
+        eb.pdfFwd = cam.directionPdf(wBA);
+        cosB = glm::dot(cam.forward(), wBA);
+    } else {
+        eb = b.bsdf().eval(b.wo, wBA, TransportMode::Radiance);
+        cosB = std::abs(glm::dot(b.shading.n, wBA));
+    }
+    if (isBlack(eb.f)) return false;
+    Color fa;
+    BsdfEval ea;
+    if (aLight) {
+        fa = detail::lightEndpointValue(a, -wBA);
+    } else {
+        ea = a.bsdf().eval(a.wo, -wBA, TransportMode::Importance);
+        fa = ea.f;
+    }
+    if (isBlack(fa)) return false;
+    float cosA = aSurface                                 ? std::abs(glm::dot(a.shading.n, wBA))
+                 : aLight && a.ng != Vec3(0.f) ? std::abs(glm::dot(a.ng, wBA))  // a.onSurface()
+                                                 : 1.f;
+    Color contrib = a.beta * fa * (cosA * cosB / dist2) * eb.f * b.beta;
+    if (isBlack(contrib)) return false;
+    // (for the camera b.ng is zero: the shadow ray starts exactly at the pinhole)
+    Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, a.p, a.ng);
+    if (shadow.tMax > 0.f) {
+        ++stats.rays;
+        if (stats.log) stats.log->shadow.push_back(shadow);
+        if (scene.occludedRay(shadow)) return false;
+    }
+
+    // MIS pdfs: the path's own, with the four values at the connection recomputed.
+    PathPdfs& P = c.pdfs;
+    P.belowBase = P.aboveBase = -1.0;
+    gatherLightPdfs(y, s, P);
+    gatherCameraPdfs(z, t, s, P, readLimit);
+    // The segments' directions and lengths are known: a-b here, and the walks' own segments
+    // arriving at a and b (wo, segmentLength).
+    // (Densities above readLimit are not read: the path tracer skips all but x_0's.)
+    if (s - 1 <= readLimit) P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, a, wBA, abDist2).value;
+    if (s >= 2 && s - 2 <= readLimit)
+        P.fromCamera[s - 2] = convertDensity(ea.pdfRev, y[s - 2], a.wo, sqr(a.segmentLength)).value;
+    if (aLight) P.delta[s - 1] = false;
+    if (s <= readLimit)
+        P.fromLight[s] = aLight ? detail::emissionDensity(scene, a, -wBA, b, abDist2).value
+                                : convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
+    if (t >= 2 && s + 1 <= readLimit)
+        P.fromLight[s + 1] = convertDensity(eb.pdfRev, z[t - 2], b.wo, sqr(b.segmentLength)).value;
+    c.contribution = contrib;
+    return true;
+}
+
+}  // namespace lt
