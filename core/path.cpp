@@ -43,10 +43,9 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
     while (n < maxVertices) {
         PathVertex& prev = path[n - 1];
         PathVertex& v = path[n];
-        SurfaceHit hit;
         ++stats.rays;
         if (stats.log) stats.log->closest.push_back(ray), stats.log->closestDepth.push_back(prev.depth);
-        if (!scene.intersect(ray, hit)) {
+        if (!scene.intersect(ray, v)) {  // fills the SurfacePoint fields of v
             if (mode == TransportMode::Radiance && !scene.infiniteLights().empty()) {
                 v = PathVertex{};
                 v.infinite = true;
@@ -62,26 +61,19 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
             }
             break;
         }
-        // Every field is written (no default construction first: this is the hot loop).
+        // Every other field is written (no default construction first: this is the hot loop).
         v.kind = VertexKind::Surface;
-        v.p = hit.p;
-        v.ng = hit.ng;
-        v.shading = hit.shading;
-        Vec3 back = prev.p - hit.p;
+        Vec3 back = prev.p - v.p;
         float backLen = glm::length(back);
         v.wo = backLen > 0.f ? back / backLen : -ray.d;  // the direction the two vertices define
-        v.bxdf = hit.bxdf;
-        v.light = hit.light;
         v.beta = beta;
         v.pdfRev = AreaPdf(allPdfs ? 0.f : kNotComputed);
         v.lobe = kNone;
         v.delta = false;
         v.infinite = false;
-        v.deltaBsdf = hit.deltaBsdf;
         v.depth = uint16_t(prev.depth + 1);
         v.segmentLength = backLen;
         v.pathLength = prev.pathLength + backLen;
-        v.roughness = hit.roughness;
         if (allPdfs || v.light) {
             refreshPdfs(scene, path, n, mode, pdfFwd);
             v.pdfFwd = convertDensity(pdfFwd, v, v.wo, sqr(backLen));

@@ -4,6 +4,7 @@
 #include <bit>
 #include <cstddef>
 #include <stdexcept>
+#include <type_traits>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -305,7 +306,9 @@ inline __m128 blend3(float w0, __m128 a, float w1, __m128 b, float w2, __m128 c)
 }
 }  // namespace
 
-bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
+template <class Hit>
+bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
+    constexpr bool kFull = std::is_same_v<Hit, SurfaceHit>;  // also t, uv and the ids
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRayHit rh;
@@ -315,9 +318,11 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     rtcIntersect1(scene_, &ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     const GeomInfo& gi = geoms_[rh.hit.geomID];
-    hit.t = rh.ray.tfar;
-    hit.geomId = int(rh.hit.geomID);
-    hit.primId = int(rh.hit.primID);
+    if constexpr (kFull) {
+        hit.t = rh.ray.tfar;
+        hit.geomId = int(rh.hit.geomID);
+        hit.primId = int(rh.hit.primID);
+    }
     hit.bxdf = gi.bxdf;
     hit.light = gi.light;
     hit.deltaBsdf = gi.deltaBsdf;
@@ -335,34 +340,43 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
             float len = std::sqrt(dot3(n, n));
             if (len > 0.f && std::isfinite(len)) ns = _mm_div_ps(n, _mm_set1_ps(len));
         }
-        if (gi.uvs) {
-            const uint32_t* idx = gi.indices + 3 * prim;
-            hit.uv = b0 * gi.uvs[idx[0]] + b1 * gi.uvs[idx[1]] + b2 * gi.uvs[idx[2]];
-        } else {
-            hit.uv = Vec2(0.f);
+        if constexpr (kFull) {
+            if (gi.uvs) {
+                const uint32_t* idx = gi.indices + 3 * prim;
+                hit.uv = b0 * gi.uvs[idx[0]] + b1 * gi.uvs[idx[1]] + b2 * gi.uvs[idx[2]];
+            } else {
+                hit.uv = Vec2(0.f);
+            }
         }
     } else {
         const SphereDesc& s = desc_.spheres[gi.sphere];
-        Vec3 d = ray.o + hit.t * ray.d - s.center;
+        Vec3 d = ray.o + rh.ray.tfar * ray.d - s.center;
         Vec3 n = glm::normalize(d);
         p = set3(s.center + s.radius * n);  // re-project onto the sphere
         if (s.flipNormals) n = -n;
         ns = ng = set3(n);
-        Vec3 dl = glm::normalize(d);
-        hit.uv = Vec2(std::atan2(dl.y, dl.x) * (0.5f * kInvPi) + 0.5f, std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
+        if constexpr (kFull) {
+            Vec3 dl = glm::normalize(d);
+            hit.uv = Vec2(std::atan2(dl.y, dl.x) * (0.5f * kInvPi) + 0.5f,
+                          std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
+        }
     }
     // The shading normal lives on the same side as the geometric one.
     if (dot3(ns, ng) < 0.f) ns = _mm_xor_ps(ns, _mm_set1_ps(-0.f));
     // p and ng as whole 16-byte stores, in this order (each spills one float into the next field,
     // which the next store overwrites): the caller's 8- and 4-byte loads of them are then each
     // inside one store and forwarded from the store buffer.
-    static_assert(offsetof(SurfaceHit, ng) == offsetof(SurfaceHit, p) + 12 &&
-                  offsetof(SurfaceHit, shading) == offsetof(SurfaceHit, ng) + 12);
-    _mm_storeu_ps(&hit.p.x, p);
-    _mm_storeu_ps(&hit.ng.x, ng);
-    hit.shading = Frame(toVec3(ns));
+    static_assert(offsetof(SurfacePoint, ng) == offsetof(SurfacePoint, p) + 12 &&
+                  offsetof(SurfacePoint, shading) == offsetof(SurfacePoint, ng) + 12);
+    SurfacePoint& sp = hit;
+    _mm_storeu_ps(&sp.p.x, p);
+    _mm_storeu_ps(&sp.ng.x, ng);
+    sp.shading = Frame(toVec3(ns));
     return true;
 }
+
+bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const { return intersectImpl(ray, hit); }
+bool Scene::intersect(const Ray& ray, SurfacePoint& hit) const { return intersectImpl(ray, hit); }
 
 Ray Scene::shadowRay(const Vec3& p0v, const Vec3& n0v, const Vec3& p1v, const Vec3& n1v) const {
     const __m128 p0 = sse::load3(p0v), n0 = sse::load3(n0v), p1 = sse::load3(p1v), n1 = sse::load3(n1v);

@@ -42,16 +42,22 @@ struct SphereGeom {
     double cx, cy, cz, r;
 };
 
-struct SurfaceHit {
-    float t = kInf;
+// The part of a surface hit a path vertex keeps (PathVertex derives from it, so that
+// Scene::intersect writes straight into the vertex: no hit record to initialise and copy).
+// p, ng and shading are adjacent (intersect stores p and ng as whole 16-byte vectors).
+struct SurfacePoint {
     Vec3 p{0.f};
     Vec3 ng{0.f};          // geometric normal (unit, the side the shape's normal points to)
     Frame shading;         // shading frame (n = interpolated normal, flipped to ng's hemisphere side)
-    Vec2 uv{0.f};
     const Bxdf* bxdf = nullptr;
     const Light* light = nullptr;  // area light on this surface, if any
     bool deltaBsdf = false;        // bxdf has only delta lobes (cached: no virtual call per vertex)
-    float roughness = 1.f;         // bxdf->roughness(), cached per shape
+    float roughness = 1.f;         // bxdf->roughness(), cached per shape (read by regularisation)
+};
+
+struct SurfaceHit : SurfacePoint {
+    float t = kInf;
+    Vec2 uv{0.f};
     int geomId = -1, primId = -1;
 };
 
@@ -63,6 +69,8 @@ public:
     Scene& operator=(const Scene&) = delete;
 
     bool intersect(const Ray& ray, SurfaceHit& hit) const;
+    // The same hit, only the fields of SurfacePoint written (not t, uv and the ids: the walk's form).
+    bool intersect(const Ray& ray, SurfacePoint& hit) const;
     // Is anything hit on the ray's [tMin, tMax]? (For the shadow rays below.)
     bool occludedRay(const Ray& r) const;
     // The shadow ray of the segment between two surface points (with geometric normals; zero
@@ -105,6 +113,9 @@ public:
     RTCScene embreeScene() const { return scene_; }
 
 private:
+    template <class Hit>
+    bool intersectImpl(const Ray& ray, Hit& hit) const;
+
     SceneDesc desc_;
     RTCDevice device_ = nullptr;
     RTCScene scene_ = nullptr;
