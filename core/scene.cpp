@@ -115,7 +115,11 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         triangleCount_ += nt;
     }
     // The hit records (pointers set once the arrays no longer move).
-    auto flat = [](const MeshDesc& m) {  // is the shading normal constant on every triangle?
+    // Frames replace the normals of flat meshes only: a mesh without normals keeps computing
+    // Frame(ng) per hit, as a frame per triangle would add 36 bytes (a second cache line) to each
+    // of its triangles (the 1M-triangle bench mesh is one).
+    auto flat = [](const MeshDesc& m) {  // are the three vertex normals of every triangle equal?
+        if (m.normals.empty()) return false;
         for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
             const Vec3& n0 = m.normals[m.indices[t]];
             if (n0 != m.normals[m.indices[t + 1]] || n0 != m.normals[m.indices[t + 2]]) return false;
@@ -126,8 +130,9 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     size_t withNormals = 0, withFrames = 0;
     for (size_t i = 0; i < desc_.meshes.size(); ++i) {
         const MeshDesc& m = desc_.meshes[i];
-        useFrames[i] = m.normals.empty() || flat(m);
-        (useFrames[i] ? withFrames : withNormals) += m.indices.size() / 3;
+        useFrames[i] = flat(m);
+        if (useFrames[i]) withFrames += m.indices.size() / 3;
+        else if (!m.normals.empty()) withNormals += m.indices.size() / 3;
     }
     tris_.resize(triangleCount_ + 1);
     triNormals_.resize(withNormals + 1);
@@ -140,12 +145,12 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         triStart[i] = nTri;
         nTri += nt;
         if (useFrames[i]) frameStart[i] = nFrame, nFrame += nt;
-        else normalStart[i] = nNormal, nNormal += nt;
+        else if (!m.normals.empty()) normalStart[i] = nNormal, nNormal += nt;
         const Vec3* pos = m.positions.data();
         const Vec3* nrm = m.normals.empty() ? nullptr : m.normals.data();
         const uint32_t* idx = m.indices.data();
         MeshTri* tris = tris_.data() + triStart[i];
-        MeshTriNormals* tn = useFrames[i] ? nullptr : triNormals_.data() + normalStart[i];
+        MeshTriNormals* tn = nrm && !useFrames[i] ? triNormals_.data() + normalStart[i] : nullptr;
         Frame* tf = useFrames[i] ? triFrames_.data() + frameStart[i] : nullptr;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, nt, 4096), [&](const tbb::blocked_range<size_t>& r) {
             for (size_t t = r.begin(); t != r.end(); ++t) {
@@ -158,10 +163,8 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
                     // What a hit computes from three equal normals, but normalising n itself
                     // (the interpolated b0 n + b1 n + b2 n differs from n by rounding only).
                     Vec3 ns = ng;
-                    if (nrm) {
-                        const float len = glm::length(nrm[i0]);
-                        if (len > 0.f && std::isfinite(len)) ns = nrm[i0] / len;
-                    }
+                    const float len = glm::length(nrm[i0]);
+                    if (len > 0.f && std::isfinite(len)) ns = nrm[i0] / len;
                     if (glm::dot(ns, ng) < 0.f) ns = -ns;
                     tf[t] = Frame(ns);
                 }
@@ -365,7 +368,7 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
         ns = ng = loadPadded3(tri.ng);
         if (gi.frames) {
             frame = &gi.frames[prim];
-        } else {
+        } else if (gi.normals) {
             const MeshTriNormals& tn = gi.normals[prim];
             __m128 n = blend3(b0, loadPadded3(tn.n0), b1, loadPadded3(tn.n1), b2, loadPadded3(tn.n2));
             float len = std::sqrt(dot3(n, n));

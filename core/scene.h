@@ -142,18 +142,17 @@ private:
     // normalize(cross(p1 - p0, p2 - p0)), and in a second array (meshes with vertex normals only)
     // the three vertex normals. Each array ends with one padding record: 16-byte loads of the last
     // Vec3 of a record stay inside the allocation.
-    // Meshes whose shading normal is constant on each triangle (face normals, or three equal
-    // vertex normals per triangle, as the built-in rectangle, cube and disk) keep each triangle's
-    // shading frame instead of its normals: a hit copies it, with no interpolation, normalisation
-    // or frame construction (36 bytes, as the normals).
+    // Meshes whose three vertex normals are equal on every triangle (the built-in rectangle, cube
+    // and disk) keep each triangle's shading frame instead of its normals: a hit copies it, with
+    // no interpolation, normalisation or frame construction (36 bytes, as the normals).
     struct MeshTri { Vec3 p0, p1, p2, ng; };   // 48 bytes
     struct MeshTriNormals { Vec3 n0, n1, n2; };  // 36 bytes
     // What a hit needs of its shape, by Embree geomID, flat (no lookups through the description).
     struct GeomInfo {
         int mesh = -1, sphere = -1;
         const MeshTri* tris = nullptr;
-        const MeshTriNormals* normals = nullptr;  // null: a constant shading frame per triangle
-        const Frame* frames = nullptr;            // that frame (meshes without normals, and flat ones)
+        const MeshTriNormals* normals = nullptr;  // null: face normals, or frames
+        const Frame* frames = nullptr;            // shading frame per triangle (flat meshes)
         const Vec2* uvs = nullptr;
         const uint32_t* indices = nullptr;
         const Bxdf* bxdf = nullptr;
@@ -163,7 +162,7 @@ private:
     };
     HugeVector<MeshTri> tris_;                // all meshes, in geometry order, + 1 padding record
     HugeVector<MeshTriNormals> triNormals_;   // meshes with varying vertex normals, + 1 padding record
-    HugeVector<Frame> triFrames_;             // the other meshes (shading frame per triangle)
+    HugeVector<Frame> triFrames_;             // flat meshes with vertex normals
     std::vector<SphereGeom> spheres_;  // user data of the Embree sphere geometries (double precision)
     std::vector<GeomInfo> geoms_;                  // by Embree geomID
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
