@@ -31,7 +31,7 @@ Camera::Camera(const CameraDesc& desc) : width_(desc.width), height_(desc.height
     area_ = 4.f * tanX_ * tanY_;
 }
 
-Ray Camera::generateRay(const Vec2& raster) const {
+Ray Camera::generateRay(const Vec2& raster, SolidAnglePdf& pdf) const {
     float sx = (2.f * raster.x / float(width_) - 1.f) * tanX_;  // +sx = image right = camera -X
     float sy = (1.f - 2.f * raster.y / float(height_)) * tanY_;
     Vec3 dCam(-sx, sy, 1.f);
@@ -39,7 +39,10 @@ Ray Camera::generateRay(const Vec2& raster) const {
     Ray r;
     r.o = pos_;
     r.d = d;
-    r.tMin = nearClip_ / glm::dot(d, forward_);
+    const float c = glm::dot(d, forward_);  // > 0
+    r.tMin = nearClip_ / c;
+    // directionPdf(d) without its tests: d is inside the image by construction.
+    pdf = SolidAnglePdf(1.f / (area_ * c * c * c));
     return r;
 }
 

@@ -23,7 +23,12 @@ public:
     Vec3 forward() const { return forward_; }
 
     // Primary ray through raster position (x, y) in [0,W]x[0,H] (y down).
-    Ray generateRay(const Vec2& raster) const;
+    Ray generateRay(const Vec2& raster) const {
+        SolidAnglePdf pdf;
+        return generateRay(raster, pdf);
+    }
+    // The same ray, and directionPdf of its direction (from the cosine the ray needs anyway).
+    Ray generateRay(const Vec2& raster, SolidAnglePdf& pdf) const;
 
     // Importance We(p_camera, w) for a direction leaving the camera (per unit area of the
     // pinhole "lens" is a delta, so this is the directional part): 1 / (A cos^4) inside the

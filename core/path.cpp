@@ -43,10 +43,9 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
     while (n < maxVertices) {
         PathVertex& prev = path[n - 1];
         PathVertex& v = path[n];
-        SurfaceHit hit;
         ++stats.rays;
         if (stats.log) stats.log->closest.push_back(ray), stats.log->closestDepth.push_back(prev.depth);
-        if (!scene.intersect(ray, hit)) {
+        if (!scene.intersect(ray, v)) {  // fills the SurfacePoint fields of v
             if (mode == TransportMode::Radiance && !scene.infiniteLights().empty()) {
                 v = PathVertex{};
                 v.infinite = true;
@@ -62,26 +61,19 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
             }
             break;
         }
-        // Every field is written (no default construction first: this is the hot loop).
+        // Every other field is written (no default construction first: this is the hot loop).
         v.kind = VertexKind::Surface;
-        v.p = hit.p;
-        v.ng = hit.ng;
-        v.shading = hit.shading;
-        Vec3 back = prev.p - hit.p;
+        Vec3 back = prev.p - v.p;
         float backLen = glm::length(back);
         v.wo = backLen > 0.f ? back / backLen : -ray.d;  // the direction the two vertices define
-        v.bxdf = hit.bxdf;
-        v.light = hit.light;
         v.beta = beta;
         v.pdfRev = AreaPdf(allPdfs ? 0.f : kNotComputed);
         v.lobe = kNone;
         v.delta = false;
         v.infinite = false;
-        v.deltaBsdf = hit.deltaBsdf;
         v.depth = uint16_t(prev.depth + 1);
         v.segmentLength = backLen;
         v.pathLength = prev.pathLength + backLen;
-        v.roughness = hit.roughness;
         if (allPdfs || v.light) {
             refreshPdfs(scene, path, n, mode, pdfFwd);
             v.pdfFwd = convertDensity(pdfFwd, v, v.wo, sqr(backLen));
@@ -115,24 +107,42 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
     return n;
 }
 
-PathVertex cameraEndpoint(const Scene& scene) {
-    PathVertex c;
-    c.kind = VertexKind::Camera;
+// Writes every field (no temporary vertex to build and copy: once per camera sample).
+static void setCameraEndpoint(const Scene& scene, PathVertex& c) {
     c.p = scene.camera().position();
+    c.ng = Vec3(0.f);
+    c.shading = Frame();
+    c.bxdf = nullptr;
+    c.light = nullptr;
+    c.deltaBsdf = false;
+    c.roughness = 0.f;
+    c.kind = VertexKind::Camera;
+    c.wo = Vec3(0.f);
     c.beta = Color(1.f);      // We cos / (pdfPos pdfDir) = 1 for a pinhole sampled by raster position
     c.pdfFwd = AreaPdf(1.f);  // the pinhole position is a delta
-    c.roughness = 0.f;
+    c.pdfRev = AreaPdf(0.f);
+    c.lobe = kNone;
+    c.delta = false;
+    c.infinite = false;
+    c.depth = 0;
+    c.segmentLength = 0.f;
+    c.pathLength = 0.f;
+}
+
+PathVertex cameraEndpoint(const Scene& scene) {
+    PathVertex c;
+    setCameraEndpoint(scene, c);
     return c;
 }
 
 int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth, PathVertex* path,
                WalkStats& stats, WalkPdfs pdfs) {
-    const Camera& cam = scene.camera();
-    Ray ray = cam.generateRay(raster);
-    path[0] = cameraEndpoint(scene);
+    SolidAnglePdf pdfDir;
+    const Ray ray = scene.camera().generateRay(raster, pdfDir);
+    setCameraEndpoint(scene, path[0]);
     if (maxVertices <= 1) return 1;
-    return randomWalk(scene, ray, Color(1.f), cam.directionPdf(ray.d), rng, TransportMode::Radiance, maxVertices,
-                      rrDepth, path, stats, pdfs);
+    return randomWalk(scene, ray, Color(1.f), pdfDir, rng, TransportMode::Radiance, maxVertices, rrDepth, path,
+                      stats, pdfs);
 }
 
 int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats) {

@@ -22,23 +22,19 @@ inline constexpr int kMaxPathVertices = 66;  // enough for max_depth 64
 
 enum class VertexKind : uint8_t { Camera, Light, Surface };
 
-struct PathVertex {
+// The surface fields (p, ng, shading, bxdf, light, deltaBsdf, roughness) come from SurfacePoint:
+// the walk's Scene::intersect writes them in place. At endpoints ng is zero for point lights,
+// the camera and vertices at infinity.
+struct PathVertex : SurfacePoint {
     VertexKind kind = VertexKind::Surface;
-    Vec3 p{0.f};
-    Vec3 ng{0.f};        // geometric normal (zero for point lights, the camera, vertices at infinity)
-    Frame shading;
     Vec3 wo{0.f};        // unit direction towards the previous vertex (zero at an endpoint)
-    const Bxdf* bxdf = nullptr;
-    const Light* light = nullptr;  // emitter at this vertex (light endpoint or emissive surface)
     Color beta{1.f};     // throughput of the subpath up to this vertex (not including its BSDF)
     AreaPdf pdfFwd, pdfRev;
     uint32_t lobe = kNone;  // lobe sampled at this vertex to continue the walk
     bool delta = false;     // continued through a delta lobe: no connection can use this vertex
     bool infinite = false;  // at infinity (environment hit, directional/constant light endpoint)
-    bool deltaBsdf = false; // surface whose BSDF has only delta lobes (cached from the hit)
     uint16_t depth = 0;     // number of segments from the subpath's endpoint
-    // Fields regularisation reads (JG19, OPSR).
-    float roughness = 1.f;      // the material's scalar roughness in [0,1]
+    // Fields regularisation reads (JG19, OPSR), besides roughness.
     float segmentLength = 0.f;  // length of the segment arriving at this vertex
     float pathLength = 0.f;     // sum of segment lengths from the endpoint to here
 

@@ -4,6 +4,7 @@
 #include <bit>
 #include <cstddef>
 #include <stdexcept>
+#include <type_traits>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -114,29 +115,59 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         triangleCount_ += nt;
     }
     // The hit records (pointers set once the arrays no longer move).
-    size_t withNormals = 0;
-    for (const MeshDesc& m : desc_.meshes)
-        if (!m.normals.empty()) withNormals += m.indices.size() / 3;
+    // Frames replace the normals of flat meshes only: a mesh without normals keeps computing
+    // Frame(ng) per hit, as a frame per triangle would add 36 bytes (a second cache line) to each
+    // of its triangles (the 1M-triangle bench mesh is one).
+    auto flat = [](const MeshDesc& m) {  // are the three vertex normals of every triangle equal?
+        if (m.normals.empty()) return false;
+        for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+            const Vec3& n0 = m.normals[m.indices[t]];
+            if (n0 != m.normals[m.indices[t + 1]] || n0 != m.normals[m.indices[t + 2]]) return false;
+        }
+        return true;
+    };
+    std::vector<char> useFrames(desc_.meshes.size());
+    size_t withNormals = 0, withFrames = 0;
+    for (size_t i = 0; i < desc_.meshes.size(); ++i) {
+        const MeshDesc& m = desc_.meshes[i];
+        useFrames[i] = flat(m);
+        if (useFrames[i]) withFrames += m.indices.size() / 3;
+        else if (!m.normals.empty()) withNormals += m.indices.size() / 3;
+    }
     tris_.resize(triangleCount_ + 1);
     triNormals_.resize(withNormals + 1);
-    std::vector<size_t> triStart(desc_.meshes.size()), normalStart(desc_.meshes.size(), size_t(-1));
-    for (size_t i = 0, nTri = 0, nNormal = 0; i < desc_.meshes.size(); ++i) {
+    triFrames_.resize(withFrames);
+    std::vector<size_t> triStart(desc_.meshes.size()), normalStart(desc_.meshes.size(), size_t(-1)),
+        frameStart(desc_.meshes.size(), size_t(-1));
+    for (size_t i = 0, nTri = 0, nNormal = 0, nFrame = 0; i < desc_.meshes.size(); ++i) {
         const MeshDesc& m = desc_.meshes[i];
         const size_t nt = m.indices.size() / 3;
         triStart[i] = nTri;
         nTri += nt;
-        if (!m.normals.empty()) normalStart[i] = nNormal, nNormal += nt;
+        if (useFrames[i]) frameStart[i] = nFrame, nFrame += nt;
+        else if (!m.normals.empty()) normalStart[i] = nNormal, nNormal += nt;
         const Vec3* pos = m.positions.data();
         const Vec3* nrm = m.normals.empty() ? nullptr : m.normals.data();
         const uint32_t* idx = m.indices.data();
         MeshTri* tris = tris_.data() + triStart[i];
-        MeshTriNormals* tn = nrm ? triNormals_.data() + normalStart[i] : nullptr;
+        MeshTriNormals* tn = nrm && !useFrames[i] ? triNormals_.data() + normalStart[i] : nullptr;
+        Frame* tf = useFrames[i] ? triFrames_.data() + frameStart[i] : nullptr;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, nt, 4096), [&](const tbb::blocked_range<size_t>& r) {
             for (size_t t = r.begin(); t != r.end(); ++t) {
                 const uint32_t i0 = idx[3 * t], i1 = idx[3 * t + 1], i2 = idx[3 * t + 2];
                 const Vec3 p0 = pos[i0], p1 = pos[i1], p2 = pos[i2];
-                tris[t] = {p0, p1, p2, glm::normalize(glm::cross(p1 - p0, p2 - p0))};
+                const Vec3 ng = glm::normalize(glm::cross(p1 - p0, p2 - p0));
+                tris[t] = {p0, p1, p2, ng};
                 if (tn) tn[t] = {nrm[i0], nrm[i1], nrm[i2]};
+                if (tf) {
+                    // What a hit computes from three equal normals, but normalising n itself
+                    // (the interpolated b0 n + b1 n + b2 n differs from n by rounding only).
+                    Vec3 ns = ng;
+                    const float len = glm::length(nrm[i0]);
+                    if (len > 0.f && std::isfinite(len)) ns = nrm[i0] / len;
+                    if (glm::dot(ns, ng) < 0.f) ns = -ns;
+                    tf[t] = Frame(ns);
+                }
             }
         });
     }
@@ -144,6 +175,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         if (gi.mesh < 0) continue;
         gi.tris = tris_.data() + triStart[gi.mesh];
         gi.normals = normalStart[gi.mesh] == size_t(-1) ? nullptr : triNormals_.data() + normalStart[gi.mesh];
+        gi.frames = frameStart[gi.mesh] == size_t(-1) ? nullptr : triFrames_.data() + frameStart[gi.mesh];
     }
     spheres_.reserve(desc_.spheres.size());
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
@@ -305,7 +337,9 @@ inline __m128 blend3(float w0, __m128 a, float w1, __m128 b, float w2, __m128 c)
 }
 }  // namespace
 
-bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
+template <class Hit>
+bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
+    constexpr bool kFull = std::is_same_v<Hit, SurfaceHit>;  // also t, uv and the ids
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRayHit rh;
@@ -315,54 +349,72 @@ bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const {
     rtcIntersect1(scene_, &ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     const GeomInfo& gi = geoms_[rh.hit.geomID];
-    hit.t = rh.ray.tfar;
-    hit.geomId = int(rh.hit.geomID);
-    hit.primId = int(rh.hit.primID);
+    if constexpr (kFull) {
+        hit.t = rh.ray.tfar;
+        hit.geomId = int(rh.hit.geomID);
+        hit.primId = int(rh.hit.primID);
+    }
     hit.bxdf = gi.bxdf;
     hit.light = gi.light;
     hit.deltaBsdf = gi.deltaBsdf;
     hit.roughness = gi.roughness;
     __m128 p, ng, ns;
+    const Frame* frame = nullptr;  // the triangle's constant shading frame, if it has one
     if (gi.mesh >= 0) {
         const size_t prim = rh.hit.primID;
         const MeshTri& tri = gi.tris[prim];  // the record after it (or the padding one) is readable
         const float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.f - b1 - b2;
         p = blend3(b0, loadPadded3(tri.p0), b1, loadPadded3(tri.p1), b2, loadPadded3(tri.p2));  // barycentric: more accurate than o + t d
         ns = ng = loadPadded3(tri.ng);
-        if (gi.normals) {
+        if (gi.frames) {
+            frame = &gi.frames[prim];
+        } else if (gi.normals) {
             const MeshTriNormals& tn = gi.normals[prim];
             __m128 n = blend3(b0, loadPadded3(tn.n0), b1, loadPadded3(tn.n1), b2, loadPadded3(tn.n2));
             float len = std::sqrt(dot3(n, n));
             if (len > 0.f && std::isfinite(len)) ns = _mm_div_ps(n, _mm_set1_ps(len));
         }
-        if (gi.uvs) {
-            const uint32_t* idx = gi.indices + 3 * prim;
-            hit.uv = b0 * gi.uvs[idx[0]] + b1 * gi.uvs[idx[1]] + b2 * gi.uvs[idx[2]];
-        } else {
-            hit.uv = Vec2(0.f);
+        if constexpr (kFull) {
+            if (gi.uvs) {
+                const uint32_t* idx = gi.indices + 3 * prim;
+                hit.uv = b0 * gi.uvs[idx[0]] + b1 * gi.uvs[idx[1]] + b2 * gi.uvs[idx[2]];
+            } else {
+                hit.uv = Vec2(0.f);
+            }
         }
     } else {
         const SphereDesc& s = desc_.spheres[gi.sphere];
-        Vec3 d = ray.o + hit.t * ray.d - s.center;
+        Vec3 d = ray.o + rh.ray.tfar * ray.d - s.center;
         Vec3 n = glm::normalize(d);
         p = set3(s.center + s.radius * n);  // re-project onto the sphere
         if (s.flipNormals) n = -n;
         ns = ng = set3(n);
-        Vec3 dl = glm::normalize(d);
-        hit.uv = Vec2(std::atan2(dl.y, dl.x) * (0.5f * kInvPi) + 0.5f, std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
+        if constexpr (kFull) {
+            Vec3 dl = glm::normalize(d);
+            hit.uv = Vec2(std::atan2(dl.y, dl.x) * (0.5f * kInvPi) + 0.5f,
+                          std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
+        }
     }
-    // The shading normal lives on the same side as the geometric one.
-    if (dot3(ns, ng) < 0.f) ns = _mm_xor_ps(ns, _mm_set1_ps(-0.f));
     // p and ng as whole 16-byte stores, in this order (each spills one float into the next field,
     // which the next store overwrites): the caller's 8- and 4-byte loads of them are then each
     // inside one store and forwarded from the store buffer.
-    static_assert(offsetof(SurfaceHit, ng) == offsetof(SurfaceHit, p) + 12 &&
-                  offsetof(SurfaceHit, shading) == offsetof(SurfaceHit, ng) + 12);
-    _mm_storeu_ps(&hit.p.x, p);
-    _mm_storeu_ps(&hit.ng.x, ng);
-    hit.shading = Frame(toVec3(ns));
+    static_assert(offsetof(SurfacePoint, ng) == offsetof(SurfacePoint, p) + 12 &&
+                  offsetof(SurfacePoint, shading) == offsetof(SurfacePoint, ng) + 12);
+    SurfacePoint& sp = hit;
+    _mm_storeu_ps(&sp.p.x, p);
+    _mm_storeu_ps(&sp.ng.x, ng);
+    if (frame) {
+        sp.shading = *frame;
+        return true;
+    }
+    // The shading normal lives on the same side as the geometric one.
+    if (dot3(ns, ng) < 0.f) ns = _mm_xor_ps(ns, _mm_set1_ps(-0.f));
+    sp.shading = Frame(toVec3(ns));
     return true;
 }
+
+bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const { return intersectImpl(ray, hit); }
+bool Scene::intersect(const Ray& ray, SurfacePoint& hit) const { return intersectImpl(ray, hit); }
 
 bool Scene::occludedRay(const Ray& r) const {
     RTCIntersectContext ctx;

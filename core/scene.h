@@ -3,6 +3,7 @@
 #pragma once
 #include <embree3/rtcore.h>
 #include <immintrin.h>
+#include <cstring>
 #include <memory>
 #include <vector>
 #include "core/camera.h"
@@ -36,22 +37,40 @@ inline float dot3(__m128 a, __m128 b) {
 }
 // v == Vec3(0) (+0 or -0 in x, y and z) for v from load3 (lane 3 is 0).
 inline bool isZero3(__m128 v) { return _mm_movemask_ps(_mm_cmpeq_ps(v, _mm_setzero_ps())) == 15; }
+// Ray{o, d, 0, kInf} as two whole vectors (o.xyz d.x) and (d.y d.z 0 kInf): no trip through
+// scalar stores and reloads.
+inline Ray makeRay(__m128 o, __m128 d) {
+    const __m128 ozdx = _mm_shuffle_ps(o, d, _MM_SHUFFLE(0, 0, 2, 2));                   // o.z o.z d.x d.x
+    const __m128 t = _mm_setr_ps(0.f, kInf, 0.f, 0.f);                                  // tMin tMax
+    const __m128 v[2] = {_mm_shuffle_ps(o, ozdx, _MM_SHUFFLE(2, 0, 1, 0)),             // o.x o.y o.z d.x
+                         _mm_shuffle_ps(d, t, _MM_SHUFFLE(1, 0, 2, 1))};               // d.y d.z 0 kInf
+    static_assert(sizeof(Ray) == sizeof(v));
+    Ray r;
+    std::memcpy(&r, v, sizeof(r));
+    return r;
+}
 }  // namespace sse
 
 struct SphereGeom {
     double cx, cy, cz, r;
 };
 
-struct SurfaceHit {
-    float t = kInf;
+// The part of a surface hit a path vertex keeps (PathVertex derives from it, so that
+// Scene::intersect writes straight into the vertex: no hit record to initialise and copy).
+// p, ng and shading are adjacent (intersect stores p and ng as whole 16-byte vectors).
+struct SurfacePoint {
     Vec3 p{0.f};
     Vec3 ng{0.f};          // geometric normal (unit, the side the shape's normal points to)
     Frame shading;         // shading frame (n = interpolated normal, flipped to ng's hemisphere side)
-    Vec2 uv{0.f};
     const Bxdf* bxdf = nullptr;
     const Light* light = nullptr;  // area light on this surface, if any
     bool deltaBsdf = false;        // bxdf has only delta lobes (cached: no virtual call per vertex)
-    float roughness = 1.f;         // bxdf->roughness(), cached per shape
+    float roughness = 1.f;         // bxdf->roughness(), cached per shape (read by regularisation)
+};
+
+struct SurfaceHit : SurfacePoint {
+    float t = kInf;
+    Vec2 uv{0.f};
     int geomId = -1, primId = -1;
 };
 
@@ -63,6 +82,8 @@ public:
     Scene& operator=(const Scene&) = delete;
 
     bool intersect(const Ray& ray, SurfaceHit& hit) const;
+    // The same hit, only the fields of SurfacePoint written (not t, uv and the ids: the walk's form).
+    bool intersect(const Ray& ray, SurfacePoint& hit) const;
     // Is anything hit on the ray's [tMin, tMax]? (For the shadow rays below.)
     bool occludedRay(const Ray& r) const;
     // The shadow ray of the segment between two surface points (with geometric normals; zero
@@ -77,7 +98,7 @@ public:
     // Ray leaving surface point p (geometric normal ng) in direction d, offset to the side of d.
     // Inline (with offsetPoint): called once or twice per path vertex from other files.
     Ray spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const {
-        return Ray{offsetPoint(p, ng, d), d, 0.f, kInf};
+        return sse::makeRay(offsetPoint(sse::load3(p), sse::load3(ng), glm::dot(d, ng) >= 0.f), sse::load3(d));
     }
     Vec3 offsetPoint(const Vec3& p, const Vec3& ng, const Vec3& towards) const {
         return sse::toVec3(offsetPoint(sse::load3(p), sse::load3(ng), glm::dot(towards, ng) >= 0.f));
@@ -105,6 +126,9 @@ public:
     RTCScene embreeScene() const { return scene_; }
 
 private:
+    template <class Hit>
+    bool intersectImpl(const Ray& ray, Hit& hit) const;
+
     SceneDesc desc_;
     RTCDevice device_ = nullptr;
     RTCScene scene_ = nullptr;
@@ -118,13 +142,17 @@ private:
     // normalize(cross(p1 - p0, p2 - p0)), and in a second array (meshes with vertex normals only)
     // the three vertex normals. Each array ends with one padding record: 16-byte loads of the last
     // Vec3 of a record stay inside the allocation.
+    // Meshes whose three vertex normals are equal on every triangle (the built-in rectangle, cube
+    // and disk) keep each triangle's shading frame instead of its normals: a hit copies it, with
+    // no interpolation, normalisation or frame construction (36 bytes, as the normals).
     struct MeshTri { Vec3 p0, p1, p2, ng; };   // 48 bytes
     struct MeshTriNormals { Vec3 n0, n1, n2; };  // 36 bytes
     // What a hit needs of its shape, by Embree geomID, flat (no lookups through the description).
     struct GeomInfo {
         int mesh = -1, sphere = -1;
         const MeshTri* tris = nullptr;
-        const MeshTriNormals* normals = nullptr;  // null: face normals
+        const MeshTriNormals* normals = nullptr;  // null: face normals, or frames
+        const Frame* frames = nullptr;            // shading frame per triangle (flat meshes)
         const Vec2* uvs = nullptr;
         const uint32_t* indices = nullptr;
         const Bxdf* bxdf = nullptr;
@@ -133,7 +161,8 @@ private:
         float roughness = 1.f;
     };
     HugeVector<MeshTri> tris_;                // all meshes, in geometry order, + 1 padding record
-    HugeVector<MeshTriNormals> triNormals_;   // meshes with vertex normals, + 1 padding record
+    HugeVector<MeshTriNormals> triNormals_;   // meshes with varying vertex normals, + 1 padding record
+    HugeVector<Frame> triFrames_;             // flat meshes with vertex normals
     std::vector<SphereGeom> spheres_;  // user data of the Embree sphere geometries (double precision)
     std::vector<GeomInfo> geoms_;                  // by Embree geomID
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none

@@ -2,6 +2,7 @@
 // determinism across thread counts, independence of scene scale.
 #include <catch2/catch.hpp>
 #include <cstring>
+#include <map>
 #include "integrators/integrator.h"
 #include "scene_builders.h"
 #include "stats.h"
@@ -228,4 +229,46 @@ TEST_CASE("the ray log holds exactly the rays the path tracer counted, and they 
     Film film2(16, 16, FilterType::Box);
     pt->renderTile(scene, film2, 0, 0, 0, 16, 16, plain);
     CHECK(plain.rays == stats.rays);
+}
+
+TEST_CASE("a triangle with one shading normal has one shading frame at every hit", "[scene]") {
+    // A tilted quad whose three vertex normals per triangle are equal (as the built-in rectangle
+    // and cube after a rotation): every hit on a triangle has the same frame, bit for bit (the
+    // interpolated b0 n + b1 n + b2 n, renormalised, differs by rounding from hit to hit). A quad
+    // without vertex normals: the frame of its face normal.
+    SceneDesc d;
+    d.bsdfs.push_back(makeDiffuse(Color(0.5f)));
+    const Vec3 c(-0.7f, -0.6f, 0.f), u(1.3f, 0.2f, -0.4f), v(0.1f, 0.9f, 0.7f), behind(0.f, 0.f, 3.f);
+    MeshDesc tilted = quad(c, u, v, 0);
+    const Vec3 n = glm::normalize(glm::cross(u, v));
+    tilted.normals.assign(4, n);
+    d.meshes.push_back(tilted);
+    d.meshes.push_back(quad(c + behind, u, v, 0));  // no normals
+    d.camera = lookAt(Vec3(0, 0, -3), Vec3(0), Vec3(0, 1, 0), 40.f, 8, 8);
+    Scene scene(d);
+    Rng rng(7, 0);
+    std::map<int, Frame> first;  // by primId: the first hit's frame
+    int hitsTilted = 0, hitsPlain = 0;
+    for (int i = 0; i < 2000; ++i) {
+        const Vec2 a = rng.uniform2();
+        const Vec3 o(-0.2f + 0.4f * rng.uniform(), 0.3f * rng.uniform(), -2.f);
+        const bool plain = i % 2 == 1;  // the second quad, from beyond it (the first one is behind it)
+        const Vec3 from = plain ? o + Vec3(0.f, 0.f, 7.f) : o;
+        const Vec3 to = c + a.x * u + a.y * v + (plain ? behind : Vec3(0.f));
+        SurfaceHit h;
+        if (!scene.intersect(Ray{from, glm::normalize(to - from)}, h)) continue;
+        if (plain) {
+            ++hitsPlain;
+            const Frame face(h.ng);
+            REQUIRE(std::memcmp(&h.shading, &face, sizeof(Frame)) == 0);
+            continue;
+        }
+        ++hitsTilted;
+        REQUIRE(glm::length(h.shading.n - n) < 1e-6f);
+        auto [it, inserted] = first.emplace(h.primId, h.shading);
+        if (!inserted) REQUIRE(std::memcmp(&h.shading, &it->second, sizeof(Frame)) == 0);
+    }
+    CHECK(hitsTilted > 500);
+    CHECK(hitsPlain > 500);
+    CHECK(first.size() == 2);
 }
