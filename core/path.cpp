@@ -44,7 +44,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         PathVertex& prev = path[n - 1];
         PathVertex& v = path[n];
         ++stats.rays;
-        if (stats.log) stats.log->closest.push_back(ray), stats.log->closestDepth.push_back(prev.depth);
+        if (stats.log) stats.log->addClosest(ray, prev.depth);
         if (!scene.intersect(ray, v)) {  // fills the SurfacePoint fields of v
             if (mode == TransportMode::Radiance && !scene.infiniteLights().empty()) {
                 v = PathVertex{};

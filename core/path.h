@@ -60,6 +60,9 @@ inline AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& to, const Vec
 struct RayLog {
     std::vector<Ray> closest, shadow;
     std::vector<uint16_t> closestDepth;  // segments before the ray (0: the walk's first ray)
+    std::vector<bool> shadowAt;          // the order of casting: entry k is true if the k-th ray was a shadow ray
+    void addClosest(const Ray& r, uint16_t depth) { closest.push_back(r), closestDepth.push_back(depth), shadowAt.push_back(false); }
+    void addShadow(const Ray& r) { shadow.push_back(r), shadowAt.push_back(true); }
 };
 
 struct WalkStats {

@@ -162,7 +162,7 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
     Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, a.p, a.ng);
     if (shadow.tMax > 0.f) {
         ++stats.rays;
-        if (stats.log) stats.log->shadow.push_back(shadow);
+        if (stats.log) stats.log->addShadow(shadow);
         if (scene.occludedRay(shadow)) return false;
     }
 

@@ -1,5 +1,6 @@
 // Path tracer: known answers (furnace, point light over a plane), agreement of its techniques,
 // determinism across thread counts, independence of scene scale.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cstring>
 #include <map>
@@ -216,6 +217,25 @@ TEST_CASE("the ray log holds exactly the rays the path tracer counted, and they 
     CHECK(cameraRays == 16 * 16);
     CHECK(deep > 0);
     CHECK(log.shadow.size() > 0);
+    // The order of casting (raybench's as-cast replay): one entry per ray, a camera ray first,
+    // shadow rays interleaved with the closest-hit rays (not all at the end), and each sample's
+    // closest-hit rays in depth order 0, 1, 2, ...
+    REQUIRE(log.shadowAt.size() == log.closest.size() + log.shadow.size());
+    CHECK_FALSE(log.shadowAt.front());
+    size_t nShadowAt = 0, closestSeen = 0;
+    for (size_t k = 0; k < log.shadowAt.size(); ++k) {
+        if (log.shadowAt[k]) ++nShadowAt;
+        else {
+            // A depth-0 ray starts a new sample; its depth follows the previous closest ray's otherwise.
+            if (closestSeen > 0 && log.closestDepth[closestSeen] != 0)
+                CHECK(log.closestDepth[closestSeen] == log.closestDepth[closestSeen - 1] + 1);
+            ++closestSeen;
+        }
+    }
+    CHECK(nShadowAt == log.shadow.size());
+    const auto firstShadow = std::find(log.shadowAt.begin(), log.shadowAt.end(), true) - log.shadowAt.begin();
+    const auto lastClosest = std::find(log.shadowAt.rbegin(), log.shadowAt.rend(), false) - log.shadowAt.rbegin();
+    CHECK(firstShadow < std::ptrdiff_t(log.shadowAt.size()) - 1 - lastClosest);
     // Every logged closest-hit ray hits the closed sphere; every shadow ray is a finite segment.
     size_t hits = 0;
     for (const Ray& r : log.closest) {
