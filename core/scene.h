@@ -96,12 +96,9 @@ public:
     }
 
     // Ray leaving surface point p (geometric normal ng) in direction d, offset to the side of d.
-    // Inline (with offsetPoint): called once or twice per path vertex from other files.
+    // Inline (with the offset rule below): called once or twice per path vertex from other files.
     Ray spawnRay(const Vec3& p, const Vec3& ng, const Vec3& d) const {
         return sse::makeRay(offsetPoint(sse::load3(p), sse::load3(ng), glm::dot(d, ng) >= 0.f), sse::load3(d));
-    }
-    Vec3 offsetPoint(const Vec3& p, const Vec3& ng, const Vec3& towards) const {
-        return sse::toVec3(offsetPoint(sse::load3(p), sse::load3(ng), glm::dot(towards, ng) >= 0.f));
     }
     // The offset rule itself, on SSE lanes x, y, z (lane 3: p3 + eps ng3), to the side of +ng or -ng.
     __m128 offsetPoint(__m128 p, __m128 ng, bool positiveSide) const {
