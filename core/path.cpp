@@ -65,7 +65,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         v.kind = VertexKind::Surface;
         Vec3 back = prev.p - v.p;
         float backLen = glm::length(back);
-        v.wo = backLen > 0.f ? back / backLen : -ray.d;  // the direction the two vertices define
+        v.wo = backLen > 0.f ? back * (1.f / backLen) : -ray.d;  // the direction the two vertices define
         v.beta = beta;
         v.pdfRev = AreaPdf(allPdfs ? 0.f : kNotComputed);
         v.lobe = kNone;
@@ -235,7 +235,10 @@ double misSumGeneral(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
 double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     if (cfg.set == TechniqueSet::PathTracer && !cfg.merging && base <= 1 && pdfs.belowBase < 0.0 &&
         pdfs.aboveBase < 0.0)
-        return detail::misSumPathTracer(pdfs, base);
+    {
+        const detail::MisFraction f = detail::misSumPathTracer(pdfs, base);
+        return f.den / f.num;
+    }
     return misSumGeneral(pdfs, base, cfg);
 }
 

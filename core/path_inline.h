@@ -16,14 +16,21 @@ inline double remapDensity(float p) { return p != 0.f ? double(p) : 1.0; }
 
 // The MIS sum (see misSumGeneral in path.cpp) for the path tracer's two techniques (s = 0: emitter
 // hit, s = 1: NEE), which compare only x_0's two densities: the terms the plain sum adds for
-// k = 0 and k = 1, in closed form. Checked against the plain sum in tests/test_bidirectional.cpp.
-inline double misSumPathTracer(const PathPdfs& pdfs, int base) {
+// k = 0 and k = 1, in closed form, as a fraction den / num. With a = p_1^2 and b = p_0^2 (the
+// squared densities of x_0 for NEE and for the emitter hit) the sum is (v1 a + v0 b) / a for
+// s = 1 and (v0 b + v1 a) / b for s = 0: the weight num / den is one division (the plain
+// sum's ratio, square and reciprocal are three, in a chain). Checked against the plain sum in
+// tests/test_bidirectional.cpp.
+struct MisFraction {
+    double num, den;
+};
+inline MisFraction misSumPathTracer(const PathPdfs& pdfs, int base) {
     const int n = pdfs.n;
     const bool valid0 = n >= 2 && pdfs.lightHittable;
     const bool valid1 = n >= 3 && !pdfs.delta[0] && !pdfs.delta[1];
-    const double r = remapDensity(pdfs.fromLight[0]) / remapDensity(pdfs.fromCamera[0]);  // p_1 / p_0
-    if (base == 0) return (valid0 ? 1.0 : 0.0) + (valid1 ? r * r : 0.0);
-    return (valid1 ? 1.0 : 0.0) + (valid0 ? 1.0 / (r * r) : 0.0);
+    const double p1 = remapDensity(pdfs.fromLight[0]), p0 = remapDensity(pdfs.fromCamera[0]);
+    const double a = p1 * p1, b = p0 * p0;
+    return {base == 0 ? b : a, (valid1 ? a : 0.0) + (valid0 ? b : 0.0)};
 }
 
 // Area density at `to` of the emission of light endpoint `lv` travelling in direction travelDir
@@ -51,8 +58,9 @@ inline Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
 inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) {
     // The path tracer's closed form here (as misWeight(pdfs, s, cfg) takes it), the rest out of line.
     if (set == TechniqueSet::PathTracer && s <= 1 && pdfs.belowBase < 0.0 && pdfs.aboveBase < 0.0) {
-        const double sum = detail::misSumPathTracer(pdfs, s);
-        return sum > 0.0 ? float(1.0 / sum) : 0.f;
+        const detail::MisFraction f = detail::misSumPathTracer(pdfs, s);
+        const double w = f.num / f.den;
+        return f.den > 0.0 && w > 0.0 ? float(w) : 0.f;  // (as 1 / sum for sum > 0; 0 for NaN)
     }
     return misWeight(pdfs, s, MisConfig{set});
 }
@@ -125,7 +133,7 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
     Vec3 d = a.p - b.p;
     const float abDist2 = glm::dot(d, d);  // the segment's squared length, for the densities
     if (!(abDist2 > 0.f)) return false;
-    Vec3 wBA = d / std::sqrt(abDist2);
+    Vec3 wBA = d * (1.f / std::sqrt(abDist2));  // one division, not three
     const float dist2 = a.infinite ? 1.f : abDist2;  // in the geometry term
 
     BsdfEval eb;
