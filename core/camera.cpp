@@ -29,20 +29,27 @@ Camera::Camera(const CameraDesc& desc) : width_(desc.width), height_(desc.height
         }
     }
     area_ = 4.f * tanX_ * tanY_;
+    invArea_ = 1.f / area_;
+    rasterToX_ = 2.f * tanX_ / float(width_);
+    rasterToY_ = 2.f * tanY_ / float(height_);
 }
 
+// The division-free form (one sqrt and one reciprocal on the chain to the ray): the camera-space
+// direction (-sx, sy, 1) has length len = sqrt(sx^2 + sy^2 + 1), the frame is orthonormal, so the
+// world direction is its image over len, cos = 1 / len, near_clip / cos = near_clip len and
+// 1 / (A cos^3) = len^3 / A.
 Ray Camera::generateRay(const Vec2& raster, SolidAnglePdf& pdf) const {
-    float sx = (2.f * raster.x / float(width_) - 1.f) * tanX_;  // +sx = image right = camera -X
-    float sy = (1.f - 2.f * raster.y / float(height_)) * tanY_;
-    Vec3 dCam(-sx, sy, 1.f);
-    Vec3 d = glm::normalize(right_ * dCam.x + up_ * dCam.y + forward_ * dCam.z);
+    const float sx = raster.x * rasterToX_ - tanX_;  // (2 x / W - 1) tanX; +sx = image right = camera -X
+    const float sy = tanY_ - raster.y * rasterToY_;  // (1 - 2 y / H) tanY
+    const float len2 = sx * sx + sy * sy + 1.f;
+    const float len = std::sqrt(len2);
+    const float invLen = 1.f / len;
     Ray r;
     r.o = pos_;
-    r.d = d;
-    const float c = glm::dot(d, forward_);  // > 0
-    r.tMin = nearClip_ / c;
+    r.d = (right_ * -sx + up_ * sy + forward_) * invLen;
+    r.tMin = nearClip_ * len;
     // directionPdf(d) without its tests: d is inside the image by construction.
-    pdf = SolidAnglePdf(1.f / (area_ * c * c * c));
+    pdf = SolidAnglePdf(len2 * len * invArea_);
     return r;
 }
 

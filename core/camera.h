@@ -48,7 +48,8 @@ private:
     int width_, height_;
     Vec3 pos_, forward_, right_, up_;  // right_ = camera +X (image left) in world space
     float tanX_, tanY_;                // half extents of the image plane at distance 1
-    float area_;
+    float area_, invArea_;
+    float rasterToX_, rasterToY_;  // 2 tanX / W, 2 tanY / H
     float nearClip_;
 };
 
