@@ -1,5 +1,6 @@
 // Sampling routines shared by BSDFs, lights and cameras.
 #pragma once
+#include <emmintrin.h>
 #include <vector>
 #include "core/math.h"
 
@@ -22,14 +23,22 @@ inline SinCos sinCosQuarterPi(float t) {
 // Shirley-Chiu concentric map. With the larger |coordinate| as the radius r, the angle is (pi/4)t
 // from the x axis, t = o.y / o.x, when |o.x| > |o.y|; else pi/2 - (pi/4)t from it, t = o.x / o.y
 // (cos and sin swap). r == 0 only at the centre (then both coordinates are 0).
+// The two cases are chosen by a lane mask, not a branch: which coordinate is the larger is a coin
+// flip per sample, and a branch on it was mispredicted about every second call (cachegrind's
+// branch simulation: 0.5 per call, the most of any line of ours).
 inline Vec2 sampleConcentricDisk(const Vec2& u) {
     const Vec2 o = 2.f * u - Vec2(1.f);
-    const bool xMajor = std::abs(o.x) > std::abs(o.y);
-    const float r = xMajor ? o.x : o.y;
+    const __m128 ox = _mm_set_ss(o.x), oy = _mm_set_ss(o.y);
+    const __m128 absMask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+    const __m128 xMajor = _mm_cmpgt_ss(_mm_and_ps(ox, absMask), _mm_and_ps(oy, absMask));
+    auto select = [&](__m128 ifX, __m128 ifY) {
+        return _mm_cvtss_f32(_mm_or_ps(_mm_and_ps(xMajor, ifX), _mm_andnot_ps(xMajor, ifY)));
+    };
+    const float r = select(ox, oy);
     if (r == 0.f) return Vec2(0.f);
-    const SinCos sc = sinCosQuarterPi((xMajor ? o.y : o.x) / r);
-    const float a = r * sc.cos, b = r * sc.sin;
-    return xMajor ? Vec2(a, b) : Vec2(b, a);
+    const SinCos sc = sinCosQuarterPi(select(oy, ox) / r);
+    const __m128 a = _mm_set_ss(r * sc.cos), b = _mm_set_ss(r * sc.sin);
+    return Vec2(select(a, b), select(b, a));
 }
 inline Vec3 sampleCosineHemisphere(const Vec2& u) {
     Vec2 d = sampleConcentricDisk(u);
