@@ -21,6 +21,7 @@
 #include <memory>
 #include <string>
 #include "core/math.h"
+#include "core/sampling.h"
 
 namespace lt {
 
@@ -60,6 +61,36 @@ struct BsdfSample {
 enum class MicrofacetType { GGX, Beckmann };
 enum class MaskingModel { Smith, VCavity };
 
+// Lambert's model (f = R / pi, cosine-weighted sampling), the one implementation: the diffuse
+// Bxdf's virtual functions and SurfaceBsdf's inline path for it both call these.
+struct Lambert {
+    Color r;  // reflectance
+    Color f;  // r / pi, the value of f
+
+    // The cosines are read once into locals: for all the compiler knows the output may alias wo,
+    // so reading wo.z after storing to it would be a reload (and a repeated > 0 test).
+    BsdfEval eval(const Vec3& wo, const Vec3& wi) const {
+        const float cosO = wo.z, cosI = wi.z;
+        if (!(cosO > 0.f) || !(cosI > 0.f)) return BsdfEval{};
+        return BsdfEval{f, SolidAnglePdf(cosI * kInvPi), SolidAnglePdf(cosO * kInvPi)};  // cos/pi, cos > 0 known
+    }
+    bool sample(const Vec3& wo, const Vec2& u, BsdfSample& out) const {
+        const float cosO = wo.z;
+        if (!(cosO > 0.f)) return false;
+        const Vec3 wi = sampleCosineHemisphere(u);
+        if (!(wi.z > 0.f)) return false;
+        out.wi.x = wi.x;  // per component: a Vec3 copy goes through the stack
+        out.wi.y = wi.y;
+        out.wi.z = wi.z;
+        out.weight = r;  // (R/pi) cos / (cos/pi)
+        out.pdfFwd = SolidAnglePdf(wi.z * kInvPi);  // cos/pi, cos > 0 known
+        out.pdfRev = SolidAnglePdf(cosO * kInvPi);
+        out.lobe = kReflection | kDiffuse;
+        out.eta = 1.f;
+        return true;
+    }
+};
+
 // Local-frame BSDF model. Stateless after construction, shared by all hits on a material.
 class Bxdf {
 public:
@@ -78,6 +109,13 @@ public:
     virtual Roughness alpha() const { return {}; }
     virtual std::string name() const = 0;
     bool isDelta() const { return (flags() & (kDiffuse | kGlossy)) == 0; }
+    // Non-null when this is the plain diffuse model: SurfaceBsdf then evaluates and samples it
+    // inline (no virtual call, no spills around one), as pbrt-v4 dispatches on a type tag. The
+    // diffuse surface is the most common of all; every other model goes through the virtual calls.
+    const Lambert* lambert() const { return lambert_; }
+
+protected:
+    const Lambert* lambert_ = nullptr;
 };
 
 using BxdfPtr = std::shared_ptr<const Bxdf>;

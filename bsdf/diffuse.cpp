@@ -8,32 +8,16 @@ namespace {
 
 class DiffuseBxdf final : public Bxdf {
 public:
-    explicit DiffuseBxdf(const Color& r) : r_(r), f_(r * kInvPi) {}
+    explicit DiffuseBxdf(const Color& r) : model_{r, r * kInvPi} { lambert_ = &model_; }
+    DiffuseBxdf(const DiffuseBxdf&) = delete;  // lambert_ points into this object
+    DiffuseBxdf& operator=(const DiffuseBxdf&) = delete;
 
-    // The cosines are read once into locals: for all the compiler knows the output may alias wo,
-    // so reading wo.z after storing to it would be a reload (and a repeated > 0 test).
     BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode, const Roughness*) const override {
-        const float cosO = wo.z, cosI = wi.z;
-        if (!(cosO > 0.f) || !(cosI > 0.f)) return BsdfEval{};
-        // cosineHemispherePdf, cos > 0 known
-        return BsdfEval{f_, SolidAnglePdf(cosI * kInvPi), SolidAnglePdf(cosO * kInvPi)};
+        return model_.eval(wo, wi);
     }
-
     bool sample(const Vec3& wo, float, const Vec2& u, TransportMode, BsdfSample& out,
                 const Roughness*) const override {
-        const float cosO = wo.z;
-        if (!(cosO > 0.f)) return false;
-        const Vec3 wi = sampleCosineHemisphere(u);
-        if (!(wi.z > 0.f)) return false;
-        out.wi.x = wi.x;  // per component: a Vec3 copy goes through the stack
-        out.wi.y = wi.y;
-        out.wi.z = wi.z;
-        out.weight = r_;  // (R/pi) cos / (cos/pi)
-        out.pdfFwd = SolidAnglePdf(wi.z * kInvPi);  // cosineHemispherePdf, cos > 0 known
-        out.pdfRev = SolidAnglePdf(cosO * kInvPi);
-        out.lobe = kReflection | kDiffuse;
-        out.eta = 1.f;
-        return true;
+        return model_.sample(wo, u, out);
     }
 
     uint32_t flags() const override { return kReflection | kDiffuse; }
@@ -41,8 +25,7 @@ public:
     std::string name() const override { return "diffuse"; }
 
 private:
-    Color r_;
-    Color f_;  // r_ / pi, the value of f
+    Lambert model_;
 };
 
 // Mitsuba's twosided: the inner BSDF seen from both sides. When wo is below the surface both

@@ -34,7 +34,8 @@ public:
                                : 1.f;
         const Vec3 wo(glm::dot(woW, frame_.s), glm::dot(woW, frame_.t), woN);
         const Vec3 wi(glm::dot(wiW, frame_.s), glm::dot(wiW, frame_.t), wiN);
-        e = bxdf_->eval(wo, wi, mode, rough);
+        const Lambert* lambert = bxdf_->lambert();
+        e = lambert ? lambert->eval(wo, wi) : bxdf_->eval(wo, wi, mode, rough);
         e.f *= corr;
         return e;
     }
@@ -44,7 +45,8 @@ public:
         const float woN = glm::dot(woW, frame_.n), woG = glm::dot(woW, ng_);
         if (!consistent(woG, woN)) return false;
         const Vec3 wo(glm::dot(woW, frame_.s), glm::dot(woW, frame_.t), woN);
-        if (!bxdf_->sample(wo, uLobe, u, mode, s, rough)) return false;
+        const Lambert* lambert = bxdf_->lambert();
+        if (!(lambert ? lambert->sample(wo, u, s) : bxdf_->sample(wo, uLobe, u, mode, s, rough))) return false;
         const Frame& f = frame_;
         const Vec3 wi = f.toWorld(s.wi);
         s.wi.x = wi.x;  // per component: a Vec3 copy goes through the stack

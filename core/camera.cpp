@@ -44,13 +44,10 @@ Ray Camera::generateRay(const Vec2& raster, SolidAnglePdf& pdf) const {
     const float len2 = sx * sx + sy * sy + 1.f;
     const float len = std::sqrt(len2);
     const float invLen = 1.f / len;
-    Ray r;
-    r.o = pos_;
-    r.d = (right_ * -sx + up_ * sy + forward_) * invLen;
-    r.tMin = nearClip_ * len;
+    const Vec3 d = (right_ * -sx + up_ * sy + forward_) * invLen;
     // directionPdf(d) without its tests: d is inside the image by construction.
     pdf = SolidAnglePdf(len2 * len * invArea_);
-    return r;
+    return sse::makeRay(sse::load3(pos_), _mm_setr_ps(d.x, d.y, d.z, 0.f), nearClip_ * len, kInf);
 }
 
 float Camera::importance(const Vec3& d) const {

@@ -4,14 +4,10 @@
 #pragma once
 #include <optional>
 #include "core/math.h"
+#include "core/ray.h"
 #include "core/scene_desc.h"
 
 namespace lt {
-
-struct Ray {
-    Vec3 o, d;
-    float tMin = 0.f, tMax = kInf;
-};
 
 class Camera {
 public:

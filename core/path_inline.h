@@ -135,6 +135,10 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
     if (!(abDist2 > 0.f)) return false;
     Vec3 wBA = d * (1.f / std::sqrt(abDist2));  // one division, not three
     const float dist2 = a.infinite ? 1.f : abDist2;  // in the geometry term
+    // The shadow ray first: it needs only the two points, and its square root and division are
+    // then under way while the BSDF is evaluated, not on the chain to the ray cast.
+    // (for the camera b.ng is zero: the shadow ray starts exactly at the pinhole)
+    const Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, a.p, a.ng);
 
     BsdfEval eb;
     float cosB;
@@ -166,8 +170,6 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
                                                  : 1.f;
     Color contrib = a.beta * fa * (cosA * cosB / dist2) * eb.f * b.beta;
     if (isBlack(contrib)) return false;
-    // (for the camera b.ng is zero: the shadow ray starts exactly at the pinhole)
-    Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, a.p, a.ng);
     if (shadow.tMax > 0.f) {
         ++stats.rays;
         if (stats.log) stats.log->addShadow(shadow);

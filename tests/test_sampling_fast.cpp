@@ -142,6 +142,10 @@ TEST_CASE("SurfaceBsdf eval and sample are bit-identical to the straightforward 
                              makeRoughConductor(MicrofacetType::GGX, 0.3f, 0.1f, Color(0.2f, 0.9f, 1.1f),
                                                 Color(3.9f, 2.4f, 2.1f), Color(1.f)),
                              makeRoughDielectric(MicrofacetType::Beckmann, 0.2f, 0.2f, 1.5f)};
+    // The plain diffuse model goes through SurfaceBsdf's inline Lambert path (no virtual call),
+    // every other one (the two-sided diffuse included) through the virtual calls: both are checked.
+    CHECK(bxdfs[0]->lambert() != nullptr);
+    for (int i = 1; i < 4; ++i) CHECK(bxdfs[i]->lambert() == nullptr);
     Rng rng(11, 0);
     int evals = 0, samples = 0, rejected = 0;
     for (const BxdfPtr& bxdf : bxdfs)
