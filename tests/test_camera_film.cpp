@@ -35,6 +35,31 @@ TEST_CASE("camera: raster position inverts ray generation; Mitsuba axes", "[came
     CHECK(cam.rasterPosition(Vec3(-0.999f * t, 0, 1))->x == Approx(10 * (1 + 0.999f) / 2).epsilon(1e-4));
 }
 
+TEST_CASE("camera: generateRay's division-free forms equal the direct ones", "[camera]") {
+    // generateRay takes the direction's length from the camera-space image-plane point and from it
+    // the unit direction, near_clip / cos and the pdf 1 / (A cos^3): equal to normalising the world
+    // direction and to directionPdf(d) only if the frame is orthonormal, so also a frame from a
+    // scaled, slightly sheared matrix (the constructor re-orthonormalises it).
+    CameraDesc a = test::lookAt(Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(0, 1, 0), 70.f, 64, 48);
+    CameraDesc b = a;
+    b.toWorld = a.toWorld * Mat4(Vec4(2.f, 0.01f, 0, 0), Vec4(0, 3.f, 0, 0), Vec4(0.02f, 0, 0.5f, 0), Vec4(0, 0, 0, 1));
+    for (CameraDesc d : {a, b}) {
+        d.nearClip = 0.5f;
+        Camera cam(d);
+        Rng rng(3, 1);
+        for (int i = 0; i < 2000; ++i) {
+            const Vec2 r(rng.uniform() * 64, rng.uniform() * 48);
+            SolidAnglePdf pdf;
+            const Ray ray = cam.generateRay(r, pdf);
+            CHECK(glm::length(ray.d) == Approx(1.0).epsilon(1e-6));
+            CHECK(pdf.value == Approx(cam.directionPdf(ray.d).value).epsilon(1e-5));
+            CHECK(ray.tMin == Approx(0.5f / glm::dot(ray.d, cam.forward())).epsilon(1e-5));
+            CHECK(ray.tMax == kInf);
+            CHECK(ray.o == cam.position());
+        }
+    }
+}
+
 TEST_CASE("camera: We and the direction pdf integrate to one over the image", "[camera]") {
     // Integrate over the sphere of directions with a fine (theta, phi) grid around the view axis.
     CameraDesc d = test::lookAt(Vec3(0), Vec3(0, 0, 1), Vec3(0, 1, 0), 60.f, 40, 30);
