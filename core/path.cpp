@@ -234,8 +234,7 @@ double misSumGeneral(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
 
 double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     if (cfg.set == TechniqueSet::PathTracer && !cfg.merging && base <= 1 && pdfs.belowBase < 0.0 &&
-        pdfs.aboveBase < 0.0)
-    {
+        pdfs.aboveBase < 0.0) {
         const detail::MisFraction f = detail::misSumPathTracer(pdfs, base);
         return f.den / f.num;
     }

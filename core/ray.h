@@ -38,20 +38,9 @@ inline float dot3(__m128 a, __m128 b) {
 }
 // v == Vec3(0) (+0 or -0 in x, y and z) for v from load3 (lane 3 is 0).
 inline bool isZero3(__m128 v) { return _mm_movemask_ps(_mm_cmpeq_ps(v, _mm_setzero_ps())) == 15; }
-// Ray{o, d, 0, kInf} as two whole vectors (o.xyz d.x) and (d.y d.z 0 kInf): no trip through
-// scalar stores and reloads.
-inline Ray makeRay(__m128 o, __m128 d) {
-    const __m128 ozdx = _mm_shuffle_ps(o, d, _MM_SHUFFLE(0, 0, 2, 2));                   // o.z o.z d.x d.x
-    const __m128 t = _mm_setr_ps(0.f, kInf, 0.f, 0.f);                                  // tMin tMax
-    const __m128 v[2] = {_mm_shuffle_ps(o, ozdx, _MM_SHUFFLE(2, 0, 1, 0)),             // o.x o.y o.z d.x
-                         _mm_shuffle_ps(d, t, _MM_SHUFFLE(1, 0, 2, 1))};               // d.y d.z 0 kInf
-    static_assert(sizeof(Ray) == sizeof(v));
-    Ray r;
-    std::memcpy(&r, v, sizeof(r));
-    return r;
-}
-// Ray{o, d, tMin, tMax} the same way.
-inline Ray makeRay(__m128 o, __m128 d, float tMin, float tMax) {
+// Ray{o, d, tMin, tMax} as two whole vectors (o.xyz d.x) and (d.y d.z tMin tMax): no trip
+// through scalar stores and reloads.
+inline Ray makeRay(__m128 o, __m128 d, float tMin = 0.f, float tMax = kInf) {
     const __m128 ozdx = _mm_shuffle_ps(o, d, _MM_SHUFFLE(0, 0, 2, 2));                   // o.z o.z d.x d.x
     const __m128 t = _mm_setr_ps(tMin, tMax, 0.f, 0.f);
     const __m128 v[2] = {_mm_shuffle_ps(o, ozdx, _MM_SHUFFLE(2, 0, 1, 0)),             // o.x o.y o.z d.x
