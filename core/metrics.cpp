@@ -5,14 +5,22 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
+#include <functional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 
 namespace lt {
 
 namespace {
 
 std::string sizeStr(const Image& im) { return std::to_string(im.width) + "x" + std::to_string(im.height); }
+
+std::string sizeMismatch(const std::string& path, const Image& got, int width, int height) {
+    return path + ": size " + sizeStr(got) + " differs from the image's " + std::to_string(width) + "x" +
+           std::to_string(height);
+}
 
 std::string fmtValue(float v) {
     char buf[32];
@@ -129,6 +137,187 @@ Image errorMap(const Image& img, const Image& ref, Metric metric, const CropRect
                 o[c] = float(v);
             }
         }
+    return out;
+}
+
+}  // namespace lt
+
+// ---- Concentration of the error ---------------------------------------------------------------
+
+namespace lt {
+
+std::vector<double> pixelRelMseErrors(const Image& img, const Image& ref, const CropRect* crop) {
+    const CropRect r = checkInputs(img, ref, crop);
+    std::vector<double> e;
+    e.reserve(size_t(r.w) * size_t(r.h));
+    for (int y = r.y; y < r.y + r.h; ++y)
+        for (int x = r.x; x < r.x + r.w; ++x) {
+            const Color& ca = img.at(x, y);
+            const Color& cb = ref.at(x, y);
+            e.push_back(relMseTerm(ca.x, cb.x) + relMseTerm(ca.y, cb.y) + relMseTerm(ca.z, cb.z));
+        }
+    return e;
+}
+
+size_t topPixelCount(size_t n, double fraction) {
+    if (!(fraction > 0.0 && fraction <= 1.0))
+        throw std::invalid_argument("top fraction must be in (0, 1], got " + fmtValue(float(fraction)));
+    const double x = fraction * double(n), whole = std::round(x);
+    const double k = std::abs(x - whole) <= 1e-9 * std::max(1.0, x) ? whole : std::ceil(x);
+    return std::clamp<size_t>(size_t(k), std::min<size_t>(n, 1), n);
+}
+
+double topShare(std::vector<double> errors, double fraction) {
+    const size_t k = topPixelCount(errors.size(), fraction);
+    double total = 0;
+    for (double e : errors) total += e;
+    if (total == 0.0) return 0.0;
+    std::nth_element(errors.begin(), errors.begin() + std::ptrdiff_t(k) - 1, errors.end(), std::greater<>());
+    double top = 0;
+    for (size_t i = 0; i < k; ++i) top += errors[i];
+    return top / total;
+}
+
+double relMseTopShare(const Image& img, const Image& ref, double fraction, const CropRect* crop) {
+    return topShare(pixelRelMseErrors(img, ref, crop), fraction);
+}
+
+std::vector<size_t> worstIndices(const std::vector<double>& errors, size_t k) {
+    k = std::min(k, errors.size());
+    std::vector<size_t> idx(errors.size());
+    for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+    std::partial_sort(idx.begin(), idx.begin() + std::ptrdiff_t(k), idx.end(),
+                      [&](size_t a, size_t b) { return errors[a] != errors[b] ? errors[a] > errors[b] : a < b; });
+    idx.resize(k);
+    return idx;
+}
+
+// ---- Technique attribution --------------------------------------------------------------------
+
+std::string StrategyId::name() const {
+    return merge ? "merge_s" + std::to_string(s) : "s" + std::to_string(s) + "_t" + std::to_string(t);
+}
+
+namespace {
+
+// Reads a non-negative decimal without sign or leading zeros from the front of v.
+std::optional<int> takeNumber(std::string_view& v) {
+    size_t n = 0;
+    while (n < v.size() && n < 6 && std::isdigit((unsigned char)v[n])) ++n;
+    if (n == 0 || (n > 1 && v[0] == '0')) return std::nullopt;
+    int x = 0;
+    for (size_t i = 0; i < n; ++i) x = x * 10 + (v[i] - '0');
+    v.remove_prefix(n);
+    return x;
+}
+
+bool takePrefix(std::string_view& v, std::string_view p) {
+    if (v.substr(0, p.size()) != p) return false;
+    v.remove_prefix(p.size());
+    return true;
+}
+
+// Sums `value(strategy image, pixel)` into one TechniqueShare per strategy, with shares, largest
+// first, zeros dropped.
+std::vector<TechniqueShare> rankTechniques(const std::vector<StrategyImage>& strategies, const std::vector<double>& values) {
+    double total = 0;
+    for (double v : values) total += v;
+    std::vector<TechniqueShare> out;
+    for (size_t i = 0; i < strategies.size(); ++i)
+        if (values[i] != 0.0) out.push_back({strategies[i].id.name(), values[i], total != 0.0 ? values[i] / total : 0.0});
+    std::stable_sort(out.begin(), out.end(), [](const TechniqueShare& a, const TechniqueShare& b) { return a.value > b.value; });
+    return out;
+}
+
+}  // namespace
+
+std::optional<StrategyId> parseStrategyFileName(std::string_view v) {
+    if (!v.ends_with(".exr")) return std::nullopt;
+    v.remove_suffix(4);
+    StrategyId id;
+    id.merge = takePrefix(v, "merge_");
+    if (!takePrefix(v, "s")) return std::nullopt;
+    auto s = takeNumber(v);
+    if (!s) return std::nullopt;
+    id.s = *s;
+    if (!id.merge) {
+        if (!takePrefix(v, "_t")) return std::nullopt;
+        auto t = takeNumber(v);
+        if (!t) return std::nullopt;
+        id.t = *t;
+    }
+    if (!v.empty()) return std::nullopt;
+    return id;
+}
+
+std::vector<StrategyImage> readStrategyImages(const std::string& dir, int width, int height) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) throw std::runtime_error(dir + ": not a directory (expected render --strategy-images output)");
+    std::vector<StrategyImage> out;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        auto id = parseStrategyFileName(e.path().filename().string());
+        if (id) out.push_back({*id, e.path().string(), {}});
+    }
+    if (out.empty())
+        throw std::runtime_error(dir + ": no strategy images (s{s}_t{t}.exr, merge_s{s}.exr, as written by render --strategy-images)");
+    std::sort(out.begin(), out.end(), [](const StrategyImage& a, const StrategyImage& b) { return a.id < b.id; });
+    for (StrategyImage& si : out) {
+        si.image = readImage(si.path);  // ImageError: "<path>: <what>"
+        if (si.image.width != width || si.image.height != height)
+            throw std::runtime_error(sizeMismatch(si.path, si.image, width, height));
+    }
+    return out;
+}
+
+Attribution attributeWorstPixels(const Image& img, const Image& ref, const std::vector<StrategyImage>& strategies,
+                                 size_t worstK, double fraction, const CropRect* crop) {
+    const CropRect r = checkInputs(img, ref, crop);
+    for (const StrategyImage& si : strategies) {
+        if (si.image.width != img.width || si.image.height != img.height || si.image.pixels.size() != img.pixels.size())
+            throw std::invalid_argument(sizeMismatch(si.path, si.image, img.width, img.height));
+        if (auto p = findNonFinite(si.image, &r))
+            throw std::invalid_argument(si.path + ": non-finite value at pixel (" + std::to_string(p->first) + ", " +
+                                        std::to_string(p->second) + ")");
+    }
+    const std::vector<double> errors = pixelRelMseErrors(img, ref, &r);
+    auto position = [&](size_t i) { return std::pair{r.x + int(i % size_t(r.w)), r.y + int(i / size_t(r.w))}; };
+    // Per-technique channel means summed over a set of pixels.
+    auto techniqueValues = [&](const std::vector<size_t>& pixels) {
+        std::vector<double> v(strategies.size(), 0.0);
+        for (size_t j = 0; j < strategies.size(); ++j)
+            for (size_t i : pixels) {
+                auto [x, y] = position(i);
+                v[j] += channelMean(strategies[j].image.at(x, y));
+            }
+        return v;
+    };
+
+    Attribution out;
+    for (size_t i : worstIndices(errors, worstK)) {
+        PixelAttribution p;
+        std::tie(p.x, p.y) = position(i);
+        p.error = errors[i];
+        p.image = channelMean(img.at(p.x, p.y));
+        p.reference = channelMean(ref.at(p.x, p.y));
+        std::vector<double> v = techniqueValues({i});
+        for (double x : v) p.strategies += x;
+        p.techniques = rankTechniques(strategies, v);
+        out.worst.push_back(std::move(p));
+    }
+    out.topPixels = topPixelCount(errors.size(), fraction);
+    out.topTechniques = rankTechniques(strategies, techniqueValues(worstIndices(errors, out.topPixels)));
+
+    double diff = 0, norm = 0;
+    for (int y = r.y; y < r.y + r.h; ++y)
+        for (int x = r.x; x < r.x + r.w; ++x) {
+            double s = 0;
+            for (const StrategyImage& si : strategies) s += channelMean(si.image.at(x, y));
+            const double a = channelMean(img.at(x, y));
+            diff += std::abs(s - a);
+            norm += std::abs(a);
+        }
+    out.strategySumRelDiff = norm > 0 ? diff / norm : (diff > 0 ? 1.0 : 0.0);
     return out;
 }
 

@@ -14,6 +14,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/image.h"
 #include "core/metrics.h"
@@ -242,6 +244,232 @@ TEST_CASE("Double accumulation stays accurate on a large image", "[metrics]") {
     CHECK(m.mse == Approx(d * d).epsilon(1e-10));
     CHECK(m.meanImage == Approx(double(0.1f)).epsilon(1e-10));
     CHECK(m.relMse == Approx(d * d / (double(0.2f) * double(0.2f) + 0.01)).epsilon(1e-10));
+}
+
+// ---- Concentration of the error (relmse_top1_share) ------------------------------------------
+
+namespace {
+
+// 100x100 images against a reference of 0 (relMseTerm(a, 0) = a^2 / 0.01): every pixel has
+// per-pixel error e (all channels equal), except the pixels in `hot`, whose error is hotFactor x e.
+std::pair<Image, Image> errorImages(float a, const std::vector<std::pair<int, int>>& hot, double hotFactor) {
+    Image img(100, 100, Color(a)), ref(100, 100, Color(0.f));
+    for (auto [x, y] : hot) img.at(x, y) = Color(float(double(a) * std::sqrt(hotFactor)));
+    return {img, ref};
+}
+
+}  // namespace
+
+TEST_CASE("Per-pixel relMSE errors sum the three channel terms and average to relMSE", "[metrics][top1]") {
+    Image a(2, 1), b(2, 1, Color(1.f));
+    a.at(0, 0) = Color(1.f, 2.f, 3.f);  // terms 0, 1/1.01, 4/1.01
+    a.at(1, 0) = Color(1.f);            // 0
+    std::vector<double> e = pixelRelMseErrors(a, b);
+    REQUIRE(e.size() == 2);
+    CHECK(e[0] == Approx(5.0 / 1.01).epsilon(1e-14));
+    CHECK(e[1] == 0.0);
+    CHECK((e[0] + e[1]) / 6.0 == Approx(computeMetrics(a, b).relMse).epsilon(1e-14));
+    // Row-major over the crop: index 0 of a crop starting at x = 1 is pixel (1, 0).
+    CropRect crop{1, 0, 1, 1};
+    CHECK(pixelRelMseErrors(a, b, &crop) == std::vector<double>{0.0});
+    CHECK_THROWS_AS(pixelRelMseErrors(a, Image(3, 1)), std::invalid_argument);
+}
+
+TEST_CASE("Top-1% share: hand-computed cases", "[metrics][top1]") {
+    SECTION("100 of 10000 pixels with 10x the error: 1000 / (9900 + 1000)") {
+        std::vector<std::pair<int, int>> hot;
+        for (int i = 0; i < 100; ++i) hot.push_back({(i * 37) % 100, (i * 53 + 7) % 100});  // 100 distinct pixels
+        auto [img, ref] = errorImages(0.25f, hot, 10.0);
+        // float(0.25 * sqrt(10))^2 is 10 x 0.25^2 to float precision.
+        CHECK(relMseTopShare(img, ref) == Approx(1000.0 / 10900.0).epsilon(1e-6));
+        // Same on the per-pixel errors directly (exact values): 1000 / 10900 to rounding.
+        std::vector<double> e(10000, 1.0);
+        for (int i = 0; i < 100; ++i) e[size_t(i) * 97] = 10.0;
+        CHECK(topShare(e) == Approx(1000.0 / 10900.0).epsilon(1e-12));
+        // The worst 2% are those 100 plus 100 ordinary pixels: 1100 / 10900.
+        CHECK(topShare(e, 0.02) == Approx(1100.0 / 10900.0).epsilon(1e-12));
+    }
+    SECTION("one pixel carries all the error: 1") {
+        auto [img, ref] = errorImages(0.f, {}, 1.0);
+        img.at(42, 17) = Color(3.f, 0.f, 1.f);
+        CHECK(relMseTopShare(img, ref) == 1.0);
+        CHECK(relMseTopShare(img, ref, 1e-4) == 1.0);  // even the single worst pixel (ceil(1) = 1)
+    }
+    SECTION("uniform error: 0.01, and the fraction itself for any fraction") {
+        auto [img, ref] = errorImages(0.5f, {}, 1.0);
+        CHECK(relMseTopShare(img, ref) == Approx(0.01).epsilon(1e-12));
+        CHECK(relMseTopShare(img, ref, 0.25) == Approx(0.25).epsilon(1e-12));
+        CHECK(relMseTopShare(img, ref, 1.0) == Approx(1.0).epsilon(1e-12));
+    }
+    SECTION("equal images: 0 (no error to concentrate)") {
+        CHECK(relMseTopShare(imageA(), imageA()) == 0.0);
+    }
+    SECTION("crop: only the pixels inside count") {
+        auto [img, ref] = errorImages(0.5f, {{10, 10}}, 1e6);
+        CropRect withHot{0, 0, 50, 20}, withoutHot{50, 50, 50, 20};  // 1000 pixels each: top 10
+        CHECK(relMseTopShare(img, ref, 0.01, &withHot) == Approx((1e6 + 9.0) / (1e6 + 999.0)).epsilon(1e-6));
+        CHECK(relMseTopShare(img, ref, 0.01, &withoutHot) == Approx(0.01).epsilon(1e-12));
+    }
+}
+
+TEST_CASE("Top pixel count is ceil(fraction * pixels), at least 1", "[metrics][top1]") {
+    CHECK(topPixelCount(10000, 0.01) == 100);
+    CHECK(topPixelCount(300, 0.01) == 3);
+    CHECK(topPixelCount(100, 0.07) == 7);     // 0.07 * 100 = 7.000000000000001 in doubles: not 8
+    CHECK(topPixelCount(101, 0.01) == 2);     // ceil(1.01)
+    CHECK(topPixelCount(50, 0.01) == 1);      // ceil(0.5)
+    CHECK(topPixelCount(1, 0.01) == 1);
+    CHECK(topPixelCount(7, 1.0) == 7);
+    CHECK(topPixelCount(0, 0.5) == 0);
+    for (double bad : {0.0, -0.1, 1.5, std::numeric_limits<double>::quiet_NaN()})
+        CHECK_THROWS_AS(topPixelCount(10, bad), std::invalid_argument);
+    CHECK_THROWS_AS(topShare({1.0, 2.0}, 0.0), std::invalid_argument);
+}
+
+TEST_CASE("Worst indices are the largest entries, largest first, ties in index order", "[metrics][top1]") {
+    std::vector<double> e{1, 5, 3, 5, 0, 4};
+    CHECK(worstIndices(e, 3) == std::vector<size_t>{1, 3, 5});
+    CHECK(worstIndices(e, 1) == std::vector<size_t>{1});
+    CHECK(worstIndices(e, 99).size() == e.size());
+    CHECK(worstIndices(e, 99).back() == 4);
+}
+
+// ---- Technique attribution ---------------------------------------------------------------------
+
+TEST_CASE("Strategy image names are parsed as render writes them", "[metrics][strategies]") {
+    auto conn = parseStrategyFileName("s0_t10.exr");
+    REQUIRE(conn);
+    CHECK_FALSE(conn->merge);
+    CHECK(conn->s == 0);
+    CHECK(conn->t == 10);
+    CHECK(conn->name() == "s0_t10");
+    auto merge = parseStrategyFileName("merge_s3.exr");
+    REQUIRE(merge);
+    CHECK(merge->merge);
+    CHECK(merge->s == 3);
+    CHECK(merge->name() == "merge_s3");
+    CHECK(parseStrategyFileName("s12_t1.exr")->name() == "s12_t1");
+    for (const char* bad : {"s1_t2.png", "s01_t2.exr", "s1_t02.exr", "merge_s3_t1.exr", "s1.exr", "s-1_t2.exr",
+                            "s1_t2.exr.bak", "merge_s.exr", "s_t1.exr", "S1_T2.exr", "image.exr", "s1_t2x.exr", ""})
+        CHECK_FALSE(parseStrategyFileName(bad).has_value());
+    // Order: connections by (s, t), then merges.
+    CHECK(*parseStrategyFileName("s1_t9.exr") < *parseStrategyFileName("s2_t1.exr"));
+    CHECK(*parseStrategyFileName("s9_t9.exr") < *parseStrategyFileName("merge_s1.exr"));
+}
+
+namespace {
+
+// A 10x10 render made of three techniques, against a flat reference of 0.7:
+//   s1_t2    : 0.5 everywhere
+//   merge_s3 : 0.2 everywhere
+//   s0_t10   : a firefly at (3, 4): (60, 30, 0) (channel mean 30), and (3, 0, 0) at (8, 1) (mean 1)
+// The image is their sum: 0.7 except (3, 4) = (60.7, 30.7, 0.7) and (8, 1) = (3.7, 0.7, 0.7).
+struct FireflyScene {
+    Image s1t2{10, 10, Color(0.5f)}, merge3{10, 10, Color(0.2f)}, s0t10{10, 10, Color(0.f)};
+    Image image{10, 10}, reference{10, 10, Color(0.7f)};
+    FireflyScene() {
+        s0t10.at(3, 4) = Color(60.f, 30.f, 0.f);
+        s0t10.at(8, 1) = Color(3.f, 0.f, 0.f);
+        for (size_t i = 0; i < image.pixels.size(); ++i) image.pixels[i] = s1t2.pixels[i] + merge3.pixels[i] + s0t10.pixels[i];
+    }
+    void write(const std::string& dir) const {
+        fs::create_directories(dir);
+        writeExr(s1t2, dir + "/s1_t2.exr");
+        writeExr(merge3, dir + "/merge_s3.exr");
+        writeExr(s0t10, dir + "/s0_t10.exr");
+        writeExr(image, dir + "/image.exr");  // not a strategy image: ignored
+    }
+};
+
+}  // namespace
+
+TEST_CASE("Attribution names the technique that makes up the worst pixels", "[metrics][strategies]") {
+    TempDir tmp;
+    FireflyScene sc;
+    sc.write(tmp.file("strat"));
+    std::vector<StrategyImage> st = readStrategyImages(tmp.file("strat"), 10, 10);
+    REQUIRE(st.size() == 3);
+    CHECK(st[0].id.name() == "s0_t10");  // sorted: connections by (s, t), then merges
+    CHECK(st[1].id.name() == "s1_t2");
+    CHECK(st[2].id.name() == "merge_s3");
+
+    Attribution at = attributeWorstPixels(sc.image, sc.reference, st, 2);
+    REQUIRE(at.worst.size() == 2);
+    const PixelAttribution& w = at.worst[0];
+    CHECK(w.x == 3);
+    CHECK(w.y == 4);
+    const Color& hot = sc.image.at(3, 4);
+    CHECK(w.error == Approx(relMseTerm(hot.x, 0.7f) + relMseTerm(hot.y, 0.7f) + relMseTerm(hot.z, 0.7f)).epsilon(1e-12));
+    CHECK(w.error > 3000.0);  // (60^2 + 30^2) / 0.5
+    CHECK(w.image == Approx(30.7).epsilon(1e-6));      // (60.7 + 30.7 + 0.7) / 3
+    CHECK(w.reference == Approx(0.7).epsilon(1e-6));
+    CHECK(w.strategies == Approx(w.image).epsilon(1e-6));
+    REQUIRE(w.techniques.size() == 3);
+    CHECK(w.techniques[0].name == "s0_t10");
+    CHECK(w.techniques[0].share == Approx(30.0 / 30.7).epsilon(1e-6));
+    CHECK(w.techniques[1].name == "s1_t2");
+    CHECK(w.techniques[1].share == Approx(0.5 / 30.7).epsilon(1e-6));
+    CHECK(w.techniques[2].name == "merge_s3");
+    CHECK(w.techniques[2].share == Approx(0.2 / 30.7).epsilon(1e-6));
+    const PixelAttribution& w2 = at.worst[1];
+    CHECK(w2.x == 8);
+    CHECK(w2.y == 1);
+    CHECK(w2.techniques[0].name == "s0_t10");
+    CHECK(w2.techniques[0].share == Approx(1.0 / 1.7).epsilon(1e-6));
+
+    // Worst 1% of 100 pixels = 1 pixel: the firefly. Worst 2% = both hot pixels:
+    // s0_t10 31 of 31 + 2 x 0.7 = 32.4.
+    CHECK(at.topPixels == 1);
+    REQUIRE(at.topTechniques.size() == 3);
+    CHECK(at.topTechniques[0].name == "s0_t10");
+    CHECK(at.topTechniques[0].share == Approx(30.0 / 30.7).epsilon(1e-6));
+    Attribution at2 = attributeWorstPixels(sc.image, sc.reference, st, 1, 0.02);
+    CHECK(at2.topPixels == 2);
+    CHECK(at2.topTechniques[0].share == Approx(31.0 / 32.4).epsilon(1e-6));
+    CHECK(at2.topTechniques[1].name == "s1_t2");
+    CHECK(at2.topTechniques[1].value == Approx(1.0).epsilon(1e-6));
+    CHECK(at.strategySumRelDiff < 1e-6);
+
+    // A crop without the firefly: the worst pixel is the other hot one, in image coordinates.
+    CropRect crop{5, 0, 5, 5};
+    Attribution ac = attributeWorstPixels(sc.image, sc.reference, st, 1, 0.01, &crop);
+    CHECK(ac.worst.at(0).x == 8);
+    CHECK(ac.worst.at(0).y == 1);
+
+    // Without one technique the strategies no longer sum to the image, and the check says so.
+    std::vector<StrategyImage> partial(st.begin() + 1, st.end());
+    CHECK(attributeWorstPixels(sc.image, sc.reference, partial, 1).strategySumRelDiff > 0.1);
+    // A pixel where no technique contributes has no techniques (and no division by zero).
+    Image zero(10, 10);
+    Attribution az = attributeWorstPixels(zero, sc.reference, {StrategyImage{{}, "s0_t2.exr", Image(10, 10)}}, 1);
+    CHECK(az.worst.at(0).techniques.empty());
+
+    // A strategy image with a NaN inside the compared region is an error naming it; outside the
+    // crop it does not matter.
+    std::vector<StrategyImage> withNan = st;
+    withNan[1].image.at(0, 9).y = std::numeric_limits<float>::quiet_NaN();
+    CHECK_THROWS_WITH(attributeWorstPixels(sc.image, sc.reference, withNan, 1),
+                      Contains(withNan[1].path) && Contains("non-finite value at pixel (0, 9)"));
+    CHECK(attributeWorstPixels(sc.image, sc.reference, withNan, 1, 0.01, &crop).worst.at(0).x == 8);
+}
+
+TEST_CASE("Reading strategy images: missing folder, no images, unreadable or wrongly sized file", "[metrics][strategies]") {
+    TempDir tmp;
+    const std::string dir = tmp.file("strat");
+    CHECK_THROWS_WITH(readStrategyImages(dir, 10, 10), Contains(dir) && Contains("not a directory"));
+    fs::create_directories(dir);
+    writeExr(Image(10, 10), dir + "/beauty.exr");
+    CHECK_THROWS_WITH(readStrategyImages(dir, 10, 10), Contains(dir) && Contains("no strategy images"));
+    FireflyScene().write(dir);
+    writeExr(Image(10, 12), dir + "/s2_t2.exr");
+    CHECK_THROWS_WITH(readStrategyImages(dir, 10, 10), Contains(dir + "/s2_t2.exr") && Contains("10x12") && Contains("10x10"));
+    {
+        std::FILE* f = std::fopen((dir + "/s2_t2.exr").c_str(), "wb");
+        REQUIRE(f);
+        std::fputs("not an exr", f);
+        std::fclose(f);
+    }
+    CHECK_THROWS_WITH(readStrategyImages(dir, 10, 10), Contains(dir + "/s2_t2.exr"));
 }
 
 TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[metrics][imgcompare]") {
