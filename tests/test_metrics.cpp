@@ -493,6 +493,26 @@ TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[
         CHECK(v.at("rmsre") == Approx(kRmsRe).epsilon(1e-14));
         CHECK(v.at("mape") == Approx(kMape).epsilon(1e-14));
         CHECK(v.at("mape_eps") == 0.01);
+        // Per-pixel errors 0, 3/1.01, 12/1.01, 0; the worst ceil(1% of 4) = 1 pixel carries 12/15.
+        CHECK(v.at("relmse_top1_share") == Approx(0.8).epsilon(1e-14));
+        CHECK(v.at("top_fraction") == 0.01);
+        CHECK(v.at("top_pixels") == 1);
+    }
+    SECTION("top-1% share alone, and with another fraction") {
+        lt::test::Run r = runImgcompare(q(a) + " " + q(b) + " --metric top1");
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        auto v = parseLines(r.output);
+        CHECK(v.size() == 3);
+        CHECK(v.at("relmse_top1_share") == Approx(0.8).epsilon(1e-14));
+        r = runImgcompare(q(a) + " " + q(b) + " --metric TOP1 --top-fraction 0.5");
+        REQUIRE(r.code == 0);
+        v = parseLines(r.output);
+        CHECK(v.at("relmse_top1_share") == 1.0);  // the two pixels with error carry all of it
+        CHECK(v.at("top_fraction") == 0.5);
+        CHECK(v.at("top_pixels") == 2);
+        // --metric mse prints no share.
+        CHECK(runImgcompare(q(a) + " " + q(b) + " --metric mse").output.find("top1") == std::string::npos);
     }
     SECTION("single metric") {
         lt::test::Run r = runImgcompare(q(a) + " " + q(b) + " --metric mse");
@@ -524,7 +544,8 @@ TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[
         INFO(r.output);
         REQUIRE(r.code == 0);
         CHECK_THAT(r.output, Contains("\"mse\": 1.25") && Contains("\"pixels\": 4") &&
-                                 Contains("\"relmse_eps\": 0.01") && Contains("\"rmsre\": "));
+                                 Contains("\"relmse_eps\": 0.01") && Contains("\"rmsre\": ") &&
+                                 Contains("\"relmse_top1_share\": 0.8") && Contains("\"top_pixels\": 1"));
         CHECK(r.output.front() == '{');
         CHECK(r.output.substr(r.output.size() - 2) == "}\n");
     }
@@ -575,12 +596,85 @@ TEST_CASE("imgcompare prints the metrics and uses the documented exit codes", "[
         CHECK(runImgcompare(q(a) + " " + q(b) + " --crop 1,2,3").code == 1);
         CHECK(runImgcompare(q(a) + " " + q(b) + " --crop a,b,c,d").code == 1);
         CHECK(runImgcompare(q(a) + " " + q(b) + " --crop 1,1,2,2").code == 1);  // outside 2x2
+        for (const char* bad : {"--top-fraction 0", "--top-fraction 1.5", "--top-fraction -0.1", "--top-fraction x",
+                                "--strategies . --worst 0", "--strategies . --worst -2",
+                                "--worst 3"}) {  // --worst needs --strategies
+            lt::test::Run r = runImgcompare(q(a) + " " + q(b) + " " + bad);
+            INFO(bad << ": " << r.output);
+            CHECK(r.code == 1);
+        }
     }
     SECTION("help documents every flag") {
         lt::test::Run r = runImgcompare("--help");
         INFO(r.output);
         CHECK(r.code == 0);
-        for (const char* s : {"--metric", "--crop", "--error-map", "--json", "relmse", "rmsre", "mape", "eps = 0.01"})
+        for (const char* s : {"--metric", "--crop", "--error-map", "--json", "relmse", "rmsre", "mape", "eps = 0.01",
+                              "top1", "relmse_top1_share", "--top-fraction", "--strategies", "--worst", "mean of R, G, B"})
             CHECK_THAT(r.output, Contains(s));
+    }
+}
+
+TEST_CASE("imgcompare --strategies lists the worst pixels with their techniques", "[metrics][imgcompare][strategies]") {
+    TempDir tmp;
+    FireflyScene sc;
+    const std::string dir = tmp.file("strat"), img = tmp.file("img.exr"), ref = tmp.file("ref.exr");
+    sc.write(dir);
+    writeExr(sc.image, img);
+    writeExr(sc.reference, ref);
+
+    SECTION("text output") {
+        lt::test::Run r = runImgcompare(q(img) + " " + q(ref) + " --strategies " + q(dir) + " --worst 2");
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        // Shares of the firefly's value 30.7: 30 (s0_t10), 0.5 (s1_t2), 0.2 (merge_s3).
+        CHECK_THAT(r.output, Contains("worst 1: pixel (3, 4) ") && Contains(": 97.7% s0_t10, 1.6% s1_t2, 0.7% merge_s3\n"));
+        CHECK_THAT(r.output, Contains("worst 2: pixel (8, 1) ") && Contains(": 58.8% s0_t10, 29.4% s1_t2, 11.8% merge_s3\n"));
+        CHECK(r.output.find("worst 3:") == std::string::npos);
+        CHECK_THAT(r.output, Contains("worst 1% of pixels (1 pixel): 97.7% s0_t10, 1.6% s1_t2, 0.7% merge_s3\n"));
+        CHECK_THAT(r.output, Contains("strategies: " + dir + " (3 images; value = mean of R, G, B"));
+        const size_t at = r.output.find("\nstrategy_sum_rel_diff: ");
+        REQUIRE(at != std::string::npos);
+        CHECK(std::stod(r.output.substr(at + 24)) < 1e-6);
+        CHECK(r.output.find("warning") == std::string::npos);
+        // Default --worst is 5; --top-fraction also sets the fraction of the technique shares.
+        r = runImgcompare(q(img) + " " + q(ref) + " --metric mse --strategies " + q(dir) + " --top-fraction 0.02");
+        REQUIRE(r.code == 0);
+        CHECK_THAT(r.output, Contains("worst 5: pixel") && Contains("worst 2% of pixels (2 pixels): 95.7% s0_t10"));
+        CHECK(r.output.find("worst 6:") == std::string::npos);
+    }
+    SECTION("json") {
+        lt::test::Run r = runImgcompare(q(img) + " " + q(ref) + " --strategies " + q(dir) + " --worst 1 --json");
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        CHECK_THAT(r.output, Contains("\"strategies\": {\"dir\": ") && Contains("\"images\": 3") &&
+                                 Contains("\"value\": \"channel_mean\"") && Contains("\"x\": 3, \"y\": 4, ") &&
+                                 Contains("\"techniques\": [{\"name\": \"s0_t10\", \"value\": 30, \"share\": 0.97") &&
+                                 Contains("\"top_pixels\": 1, \"top_techniques\": [{\"name\": \"s0_t10\""));
+        CHECK(r.output.find("\"y\": 1, ") == std::string::npos);  // --worst 1: only the firefly
+    }
+    SECTION("strategy images that do not sum to the image are flagged") {
+        fs::remove(dir + "/s0_t10.exr");
+        lt::test::Run r = runImgcompare(q(img) + " " + q(ref) + " --strategies " + q(dir));
+        INFO(r.output);
+        CHECK(r.code == 0);
+        CHECK_THAT(r.output, Contains("warning") && Contains("strategy_sum_rel_diff"));
+    }
+    SECTION("a missing folder, a wrongly sized or unreadable strategy image: exit 2 naming it") {
+        lt::test::Run r = runImgcompare(q(img) + " " + q(ref) + " --strategies " + q(tmp.file("nowhere")));
+        CHECK(r.code == 2);
+        CHECK_THAT(r.output, Contains(tmp.file("nowhere")));
+        writeExr(Image(4, 4), dir + "/merge_s5.exr");
+        r = runImgcompare(q(img) + " " + q(ref) + " --strategies " + q(dir));
+        CHECK(r.code == 2);
+        CHECK_THAT(r.output, Contains(dir + "/merge_s5.exr") && Contains("4x4"));
+        {
+            std::FILE* f = std::fopen((dir + "/merge_s5.exr").c_str(), "wb");
+            REQUIRE(f);
+            std::fputs("truncated", f);
+            std::fclose(f);
+        }
+        r = runImgcompare(q(img) + " " + q(ref) + " --strategies " + q(dir));
+        CHECK(r.code == 2);
+        CHECK_THAT(r.output, Contains(dir + "/merge_s5.exr"));
     }
 }

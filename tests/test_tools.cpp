@@ -392,3 +392,47 @@ TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machin
     CHECK(fs::exists(dir / "out/refs/cornell-box.json"));
     fs::remove_all(dir);
 }
+
+TEST_CASE("imgcompare --strategies on a real VCM render: the techniques make up each worst pixel", "[tools][imgcompare][strategies]") {
+    fs::path dir = tempDir("strategies");
+    const std::string sc = scene("cornell-box-glass-sphere.xml") + " -D res=16 --integrator vcm -q ";
+    Run r = sh(std::string(LT_RENDER_BIN) + " " + sc + "--spp 4 --seed 1 --strategy-images " + (dir / "strat").string() +
+               " -o " + (dir / "a.exr").string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    r = sh(std::string(LT_RENDER_BIN) + " " + sc + "--spp 16 --seed 2 -o " + (dir / "b.exr").string());
+    REQUIRE(r.code == 0);
+    r = sh(std::string(LT_IMGCOMPARE_BIN) + " " + (dir / "a.exr").string() + " " + (dir / "b.exr").string() +
+           " --strategies " + (dir / "strat").string() + " --worst 4 --json");
+    REQUIRE(r.code == 0);
+    json j = json::parse(r.output);
+    const double share = j.at("relmse_top1_share");
+    CHECK(share >= 0.01);  // ceil(1% of 256) = 3 pixels: at least 3/256 of the error, at most all
+    CHECK(share <= 1.0);
+    CHECK(j.at("top_pixels") == 3);
+    const json& st = j.at("strategies");
+    CHECK(st.at("images").get<int>() >= 3);  // VCM writes several connection and merge images
+    // The strategy images are the render's own: they sum to it up to float rounding.
+    CHECK(st.at("strategy_sum_rel_diff").get<double>() < 1e-5);
+    REQUIRE(st.at("worst").size() == 4);
+    double previous = 1e300;
+    for (const json& p : st.at("worst")) {
+        INFO(p.dump());
+        const double value = p.at("image");
+        CHECK(p.at("error").get<double>() <= previous);  // largest first
+        previous = p.at("error");
+        double sum = 0, shares = 0;
+        for (const json& t : p.at("techniques")) {
+            CHECK(std::regex_match(t.at("name").get<std::string>(), std::regex(R"(s[0-9]+_t[0-9]+|merge_s[0-9]+)")));
+            sum += t.at("value").get<double>();
+            shares += t.at("share").get<double>();
+        }
+        CHECK(sum == Approx(value).epsilon(1e-4).margin(1e-6));
+        CHECK(p.at("strategies").get<double>() == Approx(value).epsilon(1e-4).margin(1e-6));
+        if (value > 0) CHECK(shares == Approx(1.0).epsilon(1e-9));
+    }
+    double topShares = 0;
+    for (const json& t : st.at("top_techniques")) topShares += t.at("share").get<double>();
+    CHECK(topShares == Approx(1.0).epsilon(1e-9));
+    fs::remove_all(dir);
+}

@@ -1,8 +1,11 @@
 // imgcompare: error metrics between an image A and a reference B.
-//   imgcompare A B [--metric all|mse|relmse|rmsre|mape|mean] [--crop x,y,w,h]
-//                  [--error-map out.exr] [--json]
+//   imgcompare A B [--metric all|mse|relmse|rmsre|mape|mean|top1] [--top-fraction F] [--crop x,y,w,h]
+//                  [--error-map out.exr] [--strategies DIR [--worst K]] [--json]
+// --strategies attributes the worst pixels to the techniques whose images (render --strategy-images)
+// make up A there (core/metrics.h: attributeWorstPixels).
 // Exit codes: 0 success, 1 usage error (bad flag/value, crop outside the image),
-//             2 unreadable image, size mismatch, non-finite pixel, or error map not writable.
+//             2 unreadable image, size mismatch, non-finite pixel, error map not writable, or a
+//               strategy image that cannot be read, has another size or a non-finite pixel.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
@@ -62,6 +65,32 @@ int error(int code, const std::string& msg) {
     return code;
 }
 
+std::string percent(double share) { return fmt::format("{:.1f}%", 100.0 * share); }
+
+// "92.1% s0_t10, 5.0% merge_s3, rest 2.9%": the first `most` techniques and the rest.
+std::string shareList(const std::vector<TechniqueShare>& ts, size_t most) {
+    if (ts.empty()) return "no technique contributes";
+    std::string out;
+    double rest = 1.0;
+    for (size_t i = 0; i < std::min(most, ts.size()); ++i) {
+        out += fmt::format("{}{} {}", i ? ", " : "", percent(ts[i].share), ts[i].name);
+        rest -= ts[i].share;
+    }
+    if (ts.size() > most) out += ", rest " + percent(std::max(rest, 0.0));
+    return out;
+}
+
+std::string jsonTechniques(const std::vector<TechniqueShare>& ts) {
+    std::string out = "[";
+    for (size_t i = 0; i < ts.size(); ++i)
+        out += fmt::format("{}{{\"name\": {}, \"value\": {}, \"share\": {}}}", i ? ", " : "", jsonString(ts[i].name),
+                           ts[i].value, ts[i].share);
+    return out + "]";
+}
+
+constexpr size_t kPixelTechniques = 3;  // techniques named per worst pixel (then "rest")
+constexpr size_t kTopTechniques = 5;    // techniques named for the worst fraction of pixels
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -70,22 +99,38 @@ int main(int argc, char** argv) {
         "Images: .exr, .pfm, .hdr (same size). Each of the 3 colour channels of each pixel is one value;\n"
         "metrics average over all values (double precision). Output: one 'name: value' line per metric."};
     app.get_formatter()->column_width(34);
-    std::string pathA, pathB, metricStr = "all", cropStr, errorMapPath;
+    std::string pathA, pathB, metricStr = "all", cropStr, errorMapPath, strategiesDir;
     bool json = false;
+    double topFraction = 0.01;
+    size_t worstK = 5;
     app.add_option("A", pathA, "Image to evaluate (.exr, .pfm, .hdr)")->required()->type_name("FILE");
     app.add_option("B", pathB, "Reference image (.exr, .pfm, .hdr), same size as A")->required()->type_name("FILE");
     app.add_option("--metric", metricStr,
-                   "Metric to report: all (default), mse, relmse, rmsre, mape, or mean (mean of A and of B)")
-        ->check(CLI::IsMember({"all", "mse", "relmse", "rmsre", "mape", "mean"}, CLI::ignore_case))
+                   "Metric to report: all (default), mse, relmse, rmsre, mape, mean (mean of A and of B), or top1 "
+                   "(relmse_top1_share: the share of the relMSE carried by the worst --top-fraction of pixels)")
+        ->check(CLI::IsMember({"all", "mse", "relmse", "rmsre", "mape", "mean", "top1"}, CLI::ignore_case))
         ->type_name("NAME");
     app.add_option("--crop", cropStr,
                    "Compare only the rectangle x,y,w,h (pixels; x,y = top-left corner, row 0 at the top); "
                    "must lie inside the images")
         ->type_name("x,y,w,h");
     app.add_option("--error-map", errorMapPath,
-                   "Write the per-pixel, per-channel term of the chosen metric (relmse when --metric all; "
+                   "Write the per-pixel, per-channel term of the chosen metric (relmse when --metric all or top1; "
                    "signed difference A-B for mean) to this file (.exr, .pfm, .hdr, .png); cropped if --crop")
         ->type_name("FILE");
+    app.add_option("--top-fraction", topFraction,
+                   "Fraction of the pixels that counts as the worst, for relmse_top1_share and the technique shares "
+                   "of --strategies: ceil(F * pixels) pixels, F in (0, 1] (default 0.01)")
+        ->type_name("F");
+    CLI::Option* strategiesOpt = app.add_option("--strategies", strategiesDir,
+                   "Folder written by render --strategy-images for image A (s{s}_t{t}.exr, merge_s{s}.exr): list "
+                   "the --worst pixels with the techniques that make up A there, and each technique's share of the "
+                   "worst --top-fraction of pixels")
+        ->type_name("DIR");
+    app.add_option("--worst", worstK, "With --strategies: how many of the worst pixels to list (default 5)")
+        ->check(CLI::PositiveNumber)
+        ->needs(strategiesOpt)
+        ->type_name("K");
     app.add_flag("--json", json, "Print the results as one JSON object instead of 'name: value' lines");
     app.footer(fmt::format(
         "Metrics (a = value of A, b = value of B, n = 3 * pixels):\n"
@@ -95,8 +140,16 @@ int main(int argc, char** argv) {
         "  rmsre  : sqrt((1/n) sum (a-b)^2 / ((a+b)/2)^2)   (RMS of relative error, Jendersie & Grosch 2019);\n"
         "           a value pair with a+b == 0 contributes 0\n"
         "  mape   : (1/n) sum |a-b| / (|b| + eps),  eps = {}\n"
+        "  top1   : per pixel e = the sum of the relmse terms of its 3 channels; relmse_top1_share =\n"
+        "           (sum of e over the ceil(F * pixels) largest) / (sum of e over all pixels), F = --top-fraction;\n"
+        "           0 when A equals B. Uniform error gives F, one bad pixel gives 1.\n"
+        "--strategies DIR: the pixels with the largest e, with their value (mean of R, G, B) in A, in B and\n"
+        "  in the sum of the strategy images, and each technique's share of that sum; then each technique's\n"
+        "  share of the summed value of the worst F of pixels. strategy_sum_rel_diff = sum |S - A| / sum |A|\n"
+        "  (S = the strategy images' sum) says whether DIR belongs to A (~1e-8) or to another render.\n"
         "Exit codes: 0 success; 1 usage error (bad flag or value, crop outside the image);\n"
-        "            2 unreadable image, size mismatch, non-finite pixel, error map not writable.",
+        "            2 unreadable image, size mismatch, non-finite pixel, error map not writable,\n"
+        "              strategy folder or image unreadable, of another size or non-finite.",
         kRelMseEpsilon, kMapeEpsilon));
 
     try {
@@ -109,7 +162,9 @@ int main(int argc, char** argv) {
     std::transform(metricStr.begin(), metricStr.end(), metricStr.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
     const bool all = metricStr == "all";
-    const Metric mapMetric = all ? Metric::RelMse : *parseMetric(metricStr);
+    const Metric mapMetric = all || metricStr == "top1" ? Metric::RelMse : *parseMetric(metricStr);
+    if (!(topFraction > 0.0 && topFraction <= 1.0))
+        return error(kExitUsage, fmt::format("--top-fraction must be in (0, 1], got {}", topFraction));
 
     std::optional<CropRect> crop;
     if (!cropStr.empty()) {
@@ -142,10 +197,23 @@ int main(int argc, char** argv) {
         }
 
     ErrorMetrics m;
+    double top1 = 0;
+    std::optional<Attribution> attribution;
+    size_t strategyCount = 0;
     try {
         m = computeMetrics(a, b, cropPtr);
+        top1 = relMseTopShare(a, b, topFraction, cropPtr);
     } catch (const std::exception& e) {
         return error(kExitImage, fmt::format("{} vs {}: {}", pathA, pathB, e.what()));
+    }
+    if (!strategiesDir.empty()) {
+        try {
+            std::vector<StrategyImage> strategies = readStrategyImages(strategiesDir, a.width, a.height);
+            strategyCount = strategies.size();
+            attribution = attributeWorstPixels(a, b, strategies, worstK, topFraction, cropPtr);
+        } catch (const std::exception& e) {
+            return error(kExitImage, fmt::format("--strategies: {}", e.what()));
+        }
     }
 
     // (name, value) pairs in output order; values printed in shortest round-trip form.
@@ -165,17 +233,57 @@ int main(int argc, char** argv) {
         rows.emplace_back("mape", m.mape);
         rows.emplace_back("mape_eps", kMapeEpsilon);
     }
+    if (want("top1")) {
+        rows.emplace_back("relmse_top1_share", top1);
+        rows.emplace_back("top_fraction", topFraction);
+        rows.emplace_back("top_pixels", double(topPixelCount(m.pixels, topFraction)));
+    }
 
     if (json) {
         std::string out = fmt::format("{{\"image\": {}, \"reference\": {}, ", jsonString(pathA), jsonString(pathB));
         if (crop) out += fmt::format("\"crop\": [{}, {}, {}, {}], ", crop->x, crop->y, crop->w, crop->h);
         out += fmt::format("\"pixels\": {}", m.pixels);
         for (auto& [name, v] : rows) out += fmt::format(", \"{}\": {}", name, v);
+        if (attribution) {
+            const Attribution& at = *attribution;
+            out += fmt::format(", \"strategies\": {{\"dir\": {}, \"images\": {}, \"value\": \"channel_mean\", "
+                               "\"strategy_sum_rel_diff\": {}, \"worst\": [",
+                               jsonString(strategiesDir), strategyCount, at.strategySumRelDiff);
+            for (size_t i = 0; i < at.worst.size(); ++i) {
+                const PixelAttribution& p = at.worst[i];
+                out += fmt::format("{}{{\"x\": {}, \"y\": {}, \"error\": {}, \"image\": {}, \"reference\": {}, "
+                                   "\"strategies\": {}, \"techniques\": {}}}",
+                                   i ? ", " : "", p.x, p.y, p.error, p.image, p.reference, p.strategies,
+                                   jsonTechniques(p.techniques));
+            }
+            out += fmt::format("], \"top_fraction\": {}, \"top_pixels\": {}, \"top_techniques\": {}}}", topFraction,
+                               at.topPixels, jsonTechniques(at.topTechniques));
+        }
         fmt::print("{}}}\n", out);
     } else {
         if (all) fmt::print("pixels: {}\n", m.pixels);
         for (auto& [name, v] : rows) fmt::print("{}: {}\n", name, v);
+        if (attribution) {
+            const Attribution& at = *attribution;
+            fmt::print("strategies: {} ({} images; value = mean of R, G, B; pixels ranked by the sum of their "
+                       "channels' relmse terms)\n",
+                       strategiesDir, strategyCount);
+            fmt::print("strategy_sum_rel_diff: {}\n", at.strategySumRelDiff);
+            for (size_t i = 0; i < at.worst.size(); ++i) {
+                const PixelAttribution& p = at.worst[i];
+                fmt::print("worst {}: pixel ({}, {}) error {:.4g} image {:.4g} reference {:.4g} strategies {:.4g}: {}\n",
+                           i + 1, p.x, p.y, p.error, p.image, p.reference, p.strategies,
+                           shareList(p.techniques, kPixelTechniques));
+            }
+            fmt::print("worst {:g}% of pixels ({} pixel{}): {}\n", 100.0 * topFraction, at.topPixels,
+                       at.topPixels == 1 ? "" : "s", shareList(at.topTechniques, kTopTechniques));
+        }
     }
+    if (attribution && attribution->strategySumRelDiff > 1e-3)
+        fmt::print(stderr,
+                   "imgcompare: warning: the strategy images in {} differ from {} by {:.3g} (strategy_sum_rel_diff): "
+                   "a file is missing or they belong to another render; shares are of their sum, not of A\n",
+                   strategiesDir, pathA, attribution->strategySumRelDiff);
     std::fflush(stdout);
 
     if (!errorMapPath.empty()) {
