@@ -385,8 +385,10 @@ TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machin
     INFO(r.output);
     REQUIRE(r.code == 0);
     std::string md = lt::analysis::readFile((dir / "B.md").string());
-    CHECK(md.find("| integrator | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE |") != std::string::npos);
-    CHECK(std::regex_search(md, std::regex(R"(\| pt \| [0-9.]+ \| [0-9]+ \| [0-9.e+]+ \| [0-9.e+-]+ \|)")));
+    CHECK(md.find("| integrator | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE | top-1% share |") != std::string::npos);
+    // time, spp, samples/s, relMSE, RMS-RE, MAPE, and the top-1% share in [0, 1] with three decimals.
+    CHECK(std::regex_search(md, std::regex(R"(\| pt \| [0-9.]+ \| [0-9]+ \| [0-9.e+]+ \| [0-9.e+-]+ \| [0-9.e+-]+ \| )"
+                                           R"([0-9.e+-]+ \| [01]\.[0-9]{3} \|\n)")));
     CHECK(md.find("nproc") != std::string::npos);
     CHECK(md.find("memory") != std::string::npos);
     CHECK(fs::exists(dir / "out/refs/cornell-box.json"));

@@ -1,8 +1,9 @@
 // bench: renders the hard-case suite (scenes/hard/*.xml) and scenes/cornell-box*.xml with every
 // available integrator at equal time and writes BENCHMARKS.md: per scene and integrator the render
-// time, spp, samples/s, relMSE, RMS-RE and MAPE against a reference, and the machine (nproc, CPU
-// model, memory). References are rendered once by the `reference` tool (next to this binary) and
-// cached under out/bench/refs/ (re-rendered when the scene or the settings change).
+// time, spp, samples/s, relMSE, RMS-RE, MAPE and the top-1% share (of the relMSE, carried by the
+// worst 1% of pixels) against a reference, and the machine (nproc, CPU model, memory). References
+// are rendered once by the `reference` tool (next to this binary) and cached under out/bench/refs/
+// (re-rendered when the scene or the settings change).
 // Run from the repository root (or give --root). See docs/tools.md.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -136,7 +137,8 @@ int main(int argc, char** argv) {
         body += fmt::format("Reference: `{}`, {} spp in {:.0f} s ({}x{}, scene SHA-256 `{}`).\n\n",
                             refJson.value("config", refConfig), refJson.value("spp", 0), refJson.value("seconds", 0.0), res,
                             res, refJson.value("scene_sha256", std::string("?")).substr(0, 16));
-        body += "| integrator | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE |\n|---|---:|---:|---:|---:|---:|---:|\n";
+        body += "| integrator | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE | top-1% share |\n"
+                "|---|---:|---:|---:|---:|---:|---:|---:|\n";
         SceneDesc desc;
         try {
             desc = loadScene(scenePath, defines);
@@ -160,11 +162,11 @@ int main(int argc, char** argv) {
                 writeExr(img, o.string());
                 writePng(img, fs::path(o).replace_extension(".png").string());
                 double sps = st.seconds > 0 ? double(st.samples) / st.seconds : 0.0;
-                body += fmt::format("| {} | {:.2f} | {} | {:.3g} | {:.4g} | {:.4g} | {:.4g} |\n", integ, st.seconds, st.spp, sps,
-                                    m.relMse, m.rmsRelErr, m.mape);
+                body += fmt::format("| {} | {:.2f} | {} | {:.3g} | {:.4g} | {:.4g} | {:.4g} | {:.3f} |\n", integ, st.seconds,
+                                    st.spp, sps, m.relMse, m.rmsRelErr, m.mape, relMseTopShare(img, refImg));
                 fmt::print("  {}: {} spp in {:.2f} s, relMSE {:.4g}\n", integ, st.spp, st.seconds, m.relMse);
             } catch (const std::exception& e) {
-                body += fmt::format("| {} | failed: {} | | | | | |\n", integ, e.what());
+                body += fmt::format("| {} | failed: {} | | | | | | |\n", integ, e.what());
                 ++failures;
             }
         }
@@ -174,7 +176,9 @@ int main(int argc, char** argv) {
                        "each scene for the same wall-clock time (excluding scene loading), all at " +
                        fmt::format("{}x{} pixels, seed 1; errors are against the reference named under each scene. ", res, res) +
                        "relMSE = mean (a-b)^2/(b^2+0.01), RMS-RE = the RMS of relative residuals of Jendersie & Grosch "
-                       "2019, MAPE = mean |a-b|/(|b|+0.01) (core/metrics.h). A reference rendered by an integrator that "
+                       "2019, MAPE = mean |a-b|/(|b|+0.01), top-1% share = the share of the relMSE carried by the worst 1% "
+                       "of pixels (per pixel the sum of its three channels' terms; 0.01 when the error is spread evenly, "
+                       "near 1 when it is in a few fireflies) (core/metrics.h). A reference rendered by an integrator that "
                        "cannot sample some paths of a scene (see the comment at the top of each scene; e.g. PT and point "
                        "lights behind glass) misses them, and so do the figures against it.\n\n";
     head += fmt::format("Date: {}. Command: `{}`. Total time {:.0f} s.\n\n## Machine\n\n{}", nowUtc(), commandLine(argc, argv),
