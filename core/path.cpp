@@ -91,9 +91,15 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         SolidAnglePdf pdfRev = bs.pdfRev;
         pdfFwd = bs.pdfFwd;
         if (bs.lobe & kDelta) {
-            // A delta lobe has no density: the MIS routine skips techniques that connect here.
+            // No technique connects here (the MIS routine skips them), but the techniques on
+            // either side of v compare densities that cross it: the generalised densities of
+            // path.h ("Delta vertices"), the lobe's probability times |cos| on the outgoing side
+            // times eta^2 of the crossing, in place of the Dirac delta in projected solid angle.
             v.delta = true;
-            pdfFwd = pdfRev = SolidAnglePdf(0.f);
+            const float cosWi = std::abs(glm::dot(v.shading.n, bs.wi));
+            const float cosWo = std::abs(glm::dot(v.shading.n, v.wo));
+            pdfFwd = SolidAnglePdf(bs.pdfFwd.value * cosWi * (bs.eta * bs.eta));
+            pdfRev = SolidAnglePdf(bs.pdfRev.value * cosWo);
         }
         if (allPdfs) prev.pdfRev = convertDensity(pdfRev, prev, v.wo, sqr(v.segmentLength));
         beta *= bs.weight;

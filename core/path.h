@@ -9,6 +9,22 @@
 // Every vertex keeps two area densities:
 //   pdfFwd: density of the vertex under the walk that created it (camera walk for z, light walk for y);
 //   pdfRev: density under the walk in the other direction (filled when the next vertex is known).
+//
+// Delta vertices. A vertex x_j continued through a delta lobe (smooth mirror or glass) cannot be
+// a connection or merge vertex, but the techniques on its two sides compare densities that cross
+// it: for technique k < j and technique k' > j + 1 the ratio p_k' / p_k contains
+// pL[j] pL[j+1] / (pC[j-1] pC[j]), where pL[j+1] and pC[j-1] hold a Dirac delta. In projected solid
+// angle the two deltas differ only by eta_out^2 / eta_in^2 (the transfer through a specular
+// interface preserves eta^2 dA dw_perp), so the walk stores, for the vertex sampled through x_j,
+// the generalised density P(lobe) |cos(w_out)| eta^2 cos(at the new vertex) / d^2, eta = n_wi / n_wo
+// of the crossing (1 for reflection), and for the reverse direction P(lobe) |cos(w_in)| cos / d^2:
+// the common delta divides out of every ratio. The ratio across x_j is then
+// (p_dir,L cos_{j+1} / (p_dir,C cos_{j-1})) (eta_t / eta_i)^2 with p_dir the solid-angle densities
+// that reached x_j, which is what SmallVCM's recursion computes (without the eta^2) and what
+// tests/test_mis_densities.cpp checks against independently evaluated path densities. (Both
+// values at a delta vertex come from the walk that passed through it, so the relative eta of that
+// walk is consistent.) Storing them as 1, as before, dropped the cosines and left a ratio of
+// squared segment lengths: fireflies from s = 0 on long paths through glass.
 #pragma once
 #include <array>
 #include <vector>

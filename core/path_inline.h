@@ -9,9 +9,9 @@ namespace lt {
 
 namespace detail {
 
-// A density stored as 0 marks a vertex sampled through a delta lobe (or an entry a walk could not
-// fill); in the MIS ratios it counts as 1: the delta factor is common to every technique that can
-// sample such a path.
+// A density stored as 0 is an entry a walk could not fill (e.g. a re-evaluation that gave 0 at a
+// grazing direction and no sampled value); in the MIS ratios it counts as 1. (Vertices sampled
+// through a delta lobe store generalised densities: see "Delta vertices" in path.h.)
 inline double remapDensity(float p) { return p != 0.f ? double(p) : 1.0; }
 
 // The MIS sum (see misSumGeneral in path.cpp) for the path tracer's two techniques (s = 0: emitter

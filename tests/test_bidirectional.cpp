@@ -290,7 +290,7 @@ TEST_CASE("MIS: the path tracer's closed-form weights equal the plain sum", "[pt
         PathPdfs p;
         p.n = 2 + int(rng.uniform() * 8.f);
         for (int i = 0; i < p.n; ++i) {
-            // densities over 12 decades, sometimes 0 (a delta vertex's stored density)
+            // densities over 12 decades, sometimes 0 (an entry a walk could not fill)
             p.fromLight[i] = rng.uniform() < 0.1f ? 0.f : std::pow(10.f, 12.f * rng.uniform() - 6.f);
             p.fromCamera[i] = rng.uniform() < 0.1f ? 0.f : std::pow(10.f, 12.f * rng.uniform() - 6.f);
             p.delta[i] = rng.uniform() < 0.2f;
