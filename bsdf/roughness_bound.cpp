@@ -1,6 +1,9 @@
 #include "bsdf/roughness_bound.h"
 
 #include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace lt {
 
@@ -69,6 +72,18 @@ float alphaForBound(MicrofacetType type, MaskingModel masking, float tau, bool t
         if (bound(type, masking, std::exp(mid), transmission, eta) > t) lo = mid; else hi = mid;
     }
     return float(std::exp(0.5 * (lo + hi)));
+}
+
+double consistentTau(double tau0, uint64_t n) {
+    if (n == 0) throw std::invalid_argument("consistentTau: the iteration index n starts at 1");
+    if (!(tau0 > 1.0 / (2.0 * kPiD)))
+        throw std::invalid_argument("consistentTau: tau0 must exceed 1/(2 pi) = 0.159, got " + std::to_string(tau0));
+    if (std::isinf(tau0)) return std::numeric_limits<double>::infinity();
+    const double k = 2.0 * kPiD * tau0 - 1.0;
+    const double x2 = (4.0 * kPiD * tau0 - 1.0) / k / k;  // (not / (k * k): no overflow for huge tau0)
+    const double y2 = x2 / std::cbrt(double(n));  // (x n^(-1/6))^2
+    const double s = std::sqrt(1.0 + y2);
+    return s * (1.0 + s) / (2.0 * kPiD * y2);
 }
 
 }  // namespace lt

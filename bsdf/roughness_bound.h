@@ -37,6 +37,8 @@
 // * eta is the relative IOR int_ior / ext_ior; the transmission bound is symmetric in
 //   eta <-> 1/eta and infinite for eta == 1 (an index-matched refraction is a delta).
 #pragma once
+#include <cstdint>
+
 #include "bsdf/bsdf.h"
 
 namespace lt {
@@ -50,5 +52,16 @@ float maxValueBound(MicrofacetType type, MaskingModel masking, float alpha, bool
 // transmission (eta == 1: no finite alpha bounds it; the dielectric ignores roughness there).
 // tau <= 0 gives 1; tau = +inf gives 0.
 float alphaForBound(MicrofacetType type, MaskingModel masking, float tau, bool transmission, float eta);
+
+// The consistent bound of JG19 Eq. 16 for iteration (sample index) n >= 1:
+//   tau_n = 1 / (2 pi [1 - cos(atan(x n^(-1/6)))]),  x = sqrt(4 pi tau0 - 1) / (2 pi tau0 - 1),
+// so tau_1 = tau0, tau_n increases strictly and grows like n^(1/3) / (pi x^2). Evaluated in
+// double without the cancellation of 1 - cos(small): with y^2 = x^2 n^(-1/3) and
+// s = sqrt(1 + y^2), 1 - cos(atan y) = y^2 / (s (1 + s)), hence tau_n = s (1 + s) / (2 pi y^2),
+// accurate to a few ulp up to n = 1e12 and beyond (tests/test_regularization_schedule.cpp).
+// tau0 = +inf gives +inf (no regularisation). Throws std::invalid_argument for n == 0 or
+// tau0 <= 1 / (2 pi) or NaN (the formula needs 2 pi tau0 > 1: 1/(2 pi) bounds a lobe spread
+// uniformly over the hemisphere, the least any tau can mean).
+double consistentTau(double tau0, uint64_t n);
 
 }  // namespace lt
