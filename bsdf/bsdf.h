@@ -17,7 +17,8 @@
 // * A delta lobe (smooth conductor/dielectric, alpha below kMinAlpha) is never returned by eval
 //   (f = 0, pdfs = 0); sample() returns it with the Delta flag, weight = f|cos|/pdf, and pdfFwd /
 //   pdfRev set to the discrete probability of choosing that lobe (the walk turns it into the
-//   generalised density of core/path.h, "Delta vertices", with |cos| and eta^2 = BsdfSample::eta^2).
+//   generalised density of integrators/transport/path.h, "Delta vertices", with |cos| and
+//   eta^2 = BsdfSample::eta^2).
 #pragma once
 #include <memory>
 #include <string>

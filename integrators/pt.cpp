@@ -36,8 +36,8 @@ public:
             }
     }
 
-    // Flattened: sampleLightVertex, connect and the MIS weight (core/path_inline.h) are compiled
-    // into this loop, specialised for s = 1, readLimit = 0 and its known ends (ConnectEnds).
+    // Flattened: sampleLightVertex, connect and the MIS weight (integrators/transport/path_inline.h)
+    // are compiled into this loop, specialised for s = 1, readLimit = 0 and its known ends (ConnectEnds).
     [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z,
                                     PathPdfs& pdfs, WalkStats& stats) const {
         int nz = cameraWalk(scene, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats, WalkPdfs::EmitterHits);

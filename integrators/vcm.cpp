@@ -13,7 +13,7 @@
 #include <fmt/core.h>
 #include <mutex>
 #include <stdexcept>
-#include "core/light_paths.h"
+#include "integrators/transport/light_paths.h"
 #include "integrators/integrator.h"
 
 namespace lt {

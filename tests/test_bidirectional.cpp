@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cstring>
 #include <map>
-#include "core/light_paths.h"
+#include "integrators/transport/light_paths.h"
 #include "integrators/integrator.h"
 #include "scene_builders.h"
 #include "stats.h"

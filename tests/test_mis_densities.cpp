@@ -21,8 +21,8 @@
 #include <array>
 #include <optional>
 #include <vector>
-#include "core/light_paths.h"
-#include "core/path.h"
+#include "integrators/transport/light_paths.h"
+#include "integrators/transport/path.h"
 #include "scene_builders.h"
 
 using namespace lt;

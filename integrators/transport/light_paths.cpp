@@ -1,4 +1,4 @@
-#include "core/light_paths.h"
+#include "integrators/transport/light_paths.h"
 #include <tbb/parallel_for.h>
 
 namespace lt {

@@ -161,7 +161,7 @@ struct PathPdfs {
 float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 // Weight of the merge technique at x_i.
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg);
-// (Inline, core/path_inline.h: the path tracer's closed form without a call.)
+// (Inline, path_inline.h: the path tracer's closed form without a call.)
 inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set);
 // misWeight with the plain sum over techniques always (misWeight takes a closed form for the path
 // tracer's two techniques); for the tests that check the fast forms against the plain one.
@@ -236,4 +236,5 @@ inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
 
 }  // namespace lt
 
-#include "core/path_inline.h"  // the inline definitions of sampleLightVertex, connect, the gathers
+// The inline definitions of sampleLightVertex, connect, the gathers.
+#include "integrators/transport/path_inline.h"

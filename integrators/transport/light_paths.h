@@ -6,7 +6,7 @@
 #pragma once
 #include <vector>
 #include "core/huge_pages.h"
-#include "core/path.h"
+#include "integrators/transport/path.h"
 
 namespace lt {
 

@@ -1,5 +1,5 @@
-#include "core/path.h"
-#include "core/light_paths.h"
+#include "integrators/transport/path.h"
+#include "integrators/transport/light_paths.h"
 
 namespace lt {
 
@@ -188,7 +188,7 @@ int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVe
 
 namespace {
 
-using detail::remapDensity;  // (core/path_inline.h, with the closed form misSumPathTracer)
+using detail::remapDensity;  // (path_inline.h, with the closed form misSumPathTracer)
 
 // sum over all techniques k able to sample the path of (n_k p_k / p_VC(base))^2.
 double misSumGeneral(const PathPdfs& pdfs, int base, const MisConfig& cfg) {

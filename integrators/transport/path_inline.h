@@ -1,8 +1,8 @@
-// Inline definitions of the per-sample routines of core/path.h that the path tracer calls per
-// camera vertex (NEE: sampleLightVertex, connect, the pdf gathers, the path tracer's MIS weight).
+// Inline definitions of the per-sample routines of path.h that the path tracer calls per camera
+// vertex (NEE: sampleLightVertex, connect, the pdf gathers, the path tracer's MIS weight).
 // In a header so that the compiler specialises them per call site: at the path tracer's call
 // (integrators/pt.cpp) s = 1, readLimit = 0 and the light endpoint are known, and the light
-// sample goes straight into the vertex. Included at the end of core/path.h.
+// sample goes straight into the vertex. Included at the end of path.h.
 #pragma once
 
 namespace lt {
