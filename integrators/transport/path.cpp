@@ -8,13 +8,13 @@ namespace lt {
 // offset origin, so the densities of the segment path[i-1] -> path[i] are re-evaluated with the
 // direction between the two vertex positions (pdfFwd of path[i], pdfRev of path[i-2]). Keeps the
 // sampled values where the re-evaluation gives zero (grazing directions).
-static void refreshPdfs(const Scene& scene, PathVertex* path, int i, TransportMode mode, SolidAnglePdf& pdfFwd) {
+static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfContext& ctx, SolidAnglePdf& pdfFwd) {
     const PathVertex& prev = path[i - 1];
     const Vec3 d = -path[i].wo;
     switch (prev.kind) {
         case VertexKind::Surface:
             if (!prev.delta && prev.bxdf) {
-                BsdfEval e = prev.bsdf().eval(prev.wo, d, mode);
+                BsdfEval e = prev.bsdf().eval(prev.wo, d, ctx);
                 if (e.pdfFwd.value > 0.f) pdfFwd = e.pdfFwd;
                 if (i >= 2 && e.pdfRev.value > 0.f)
                     path[i - 2].pdfRev = convertDensity(e.pdfRev, path[i - 2], prev.wo, sqr(prev.segmentLength));
@@ -38,6 +38,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
                int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats, WalkPdfs pdfs) {
     constexpr float kNotComputed = std::numeric_limits<float>::quiet_NaN();
     const bool allPdfs = pdfs == WalkPdfs::All;
+    const BsdfContext& ctx = plainContext(mode);  // the walks sample and evaluate the materials' own BSDFs
     int n = 1;
     SolidAnglePdf pdfFwd = pdfDir;
     while (n < maxVertices) {
@@ -75,7 +76,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         v.segmentLength = backLen;
         v.pathLength = prev.pathLength + backLen;
         if (allPdfs || v.light) {
-            refreshPdfs(scene, path, n, mode, pdfFwd);
+            refreshPdfs(scene, path, n, ctx, pdfFwd);
             v.pdfFwd = convertDensity(pdfFwd, v, v.wo, sqr(backLen));
         } else {
             v.pdfFwd = AreaPdf(kNotComputed);
@@ -86,7 +87,7 @@ int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rn
         BsdfSample bs;
         float uLobe = rng.uniform();
         Vec2 u = rng.uniform2();
-        if (!v.bsdf().sample(v.wo, uLobe, u, mode, bs) || isBlack(bs.weight)) break;
+        if (!v.bsdf().sample(v.wo, uLobe, u, ctx, bs) || isBlack(bs.weight)) break;
         v.lobe = bs.lobe;
         SolidAnglePdf pdfRev = bs.pdfRev;
         pdfFwd = bs.pdfFwd;
@@ -313,7 +314,7 @@ bool merge(const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, i
     const PathVertex& zv = z[t - 1];
     if (i < 1 || t < 2 || !zv.connectible() || zv.infinite) return false;
     if (glm::dot(ph.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
-    BsdfEval ez = zv.bsdf().eval(zv.wo, ph.wo, TransportMode::Radiance);
+    BsdfEval ez = zv.bsdf().eval(zv.wo, ph.wo, kRadianceContext);
     if (isBlack(ez.f)) return false;
     c.contribution = zv.beta * ez.f * ph.beta;
     // Full path: x_0..x_i from the light subpath (x_i at the camera vertex), then z[t-2]..z[0].

@@ -152,7 +152,7 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
         eb.pdfFwd = cam.directionPdf(wBA);
         cosB = glm::dot(cam.forward(), wBA);
     } else {
-        eb = b.bsdf().eval(b.wo, wBA, TransportMode::Radiance);
+        eb = b.bsdf().eval(b.wo, wBA, kRadianceContext);
         cosB = std::abs(glm::dot(b.shading.n, wBA));
     }
     if (isBlack(eb.f)) return false;
@@ -161,7 +161,7 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
     if (aLight) {
         fa = detail::lightEndpointValue(a, -wBA);
     } else {
-        ea = a.bsdf().eval(a.wo, -wBA, TransportMode::Importance);
+        ea = a.bsdf().eval(a.wo, -wBA, kImportanceContext);
         fa = ea.f;
     }
     if (isBlack(fa)) return false;
