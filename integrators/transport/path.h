@@ -6,9 +6,19 @@
 // subpath z (t = n - s camera vertices; z_0 = x_{n-1} is the camera). PT uses s = 0 (a camera
 // walk hits an emitter) and s = 1 (next-event estimation); BPT every (s, t); VCM adds merges.
 //
-// Every vertex keeps two area densities:
-//   pdfFwd: density of the vertex under the walk that created it (camera walk for z, light walk for y);
-//   pdfRev: density under the walk in the other direction (filled when the next vertex is known).
+// ---- Names of the densities (one name per quantity, in every record) ------------------------
+// Area densities of a path vertex are named by the side whose walk samples the vertex:
+//   fromLight  pL: the density of the vertex when sampled from its neighbour on the light side
+//              (by a light walk; for x_0, the light's own position density);
+//   fromCamera pC: the density when sampled from its neighbour on the camera side (by a camera
+//              walk; 1 for the pinhole).
+// The same two names in every record that holds them: PathVertex (a vertex's own two densities:
+// for a light-subpath vertex fromLight is its walk's, fromCamera is filled when the next vertex
+// is known; the other way round on a camera subpath), VertexPdfs (the compact copy in the light
+// store), Photon (fromLight of y[i], prevFromLight of y[i-1]) and PathPdfs (indexed by the
+// position x_i on the full path: fromLight[i], fromCamera[i]). Solid-angle densities of one
+// scattering event (BsdfEval, BsdfSample, the lights' and the camera's direction pdfs) keep the
+// BSDF's names, pdfFwd (of the sampled direction wi given wo) and pdfRev (of wo given wi).
 //
 // Delta vertices. A vertex x_j continued through a delta lobe (smooth mirror or glass) cannot be
 // a connection or merge vertex, but the techniques on its two sides compare densities that cross
@@ -39,13 +49,13 @@ inline constexpr int kMaxPathVertices = 66;  // enough for max_depth 64
 enum class VertexKind : uint8_t { Camera, Light, Surface };
 
 // The surface fields (p, ng, shading, bxdf, light, deltaBsdf, roughness) come from SurfacePoint:
-// the walk's Scene::intersect writes them in place. At endpoints ng is zero for point lights,
-// the camera and vertices at infinity.
+// the walk's Scene::intersect writes them in place, setPoint for the vertices that are not surface
+// hits. At endpoints ng is zero for point lights, the camera and vertices at infinity.
 struct PathVertex : SurfacePoint {
     VertexKind kind = VertexKind::Surface;
     Vec3 wo{0.f};        // unit direction towards the previous vertex (zero at an endpoint)
     Color beta{1.f};     // throughput of the subpath up to this vertex (not including its BSDF)
-    AreaPdf pdfFwd, pdfRev;
+    AreaPdf fromLight, fromCamera;  // pL, pC of this vertex (names: see the top of this file)
     uint32_t lobe = kNone;  // lobe sampled at this vertex to continue the walk
     bool delta = false;     // continued through a delta lobe: no connection can use this vertex
     bool infinite = false;  // at infinity (environment hit, directional/constant light endpoint)
@@ -53,6 +63,36 @@ struct PathVertex : SurfacePoint {
     // Fields regularisation reads (JG19, OPSR), besides roughness.
     float segmentLength = 0.f;  // length of the segment arriving at this vertex
     float pathLength = 0.f;     // sum of segment lengths from the endpoint to here
+
+    // The one initialiser of a vertex record: every field but the surface point's, written once
+    // with no default construction first (it runs per vertex). `prev` is the vertex the walk came
+    // from, `toPrev` the unit direction to it and `segment` the distance (null, zero and 0 at an
+    // endpoint: depth 0, path length 0); the lobe is set when the walk continues from here.
+    void init(VertexKind k, const PathVertex* prev, const Vec3& toPrev, float segment, const Color& throughput,
+              AreaPdf pL, AreaPdf pC, bool atInfinity = false) {
+        kind = k;
+        wo = toPrev;
+        beta = throughput;
+        fromLight = pL;
+        fromCamera = pC;
+        lobe = kNone;
+        delta = false;
+        infinite = atInfinity;
+        depth = prev ? uint16_t(prev->depth + 1) : uint16_t(0);
+        segmentLength = segment;
+        pathLength = prev ? prev->pathLength + segment : 0.f;
+    }
+    // The surface-point fields of a vertex that is not a surface hit (the camera, a light endpoint,
+    // a point at infinity): no BSDF and no shading frame.
+    void setPoint(const Vec3& pos, const Vec3& normal, const Light* l, float rough) {
+        p = pos;
+        ng = normal;
+        shading = Frame();
+        bxdf = nullptr;
+        light = l;
+        deltaBsdf = false;
+        roughness = rough;
+    }
 
     bool onSurface() const { return kind == VertexKind::Surface || (kind == VertexKind::Light && ng != Vec3(0.f)); }
     bool connectible() const { return !delta && (kind != VertexKind::Surface || (bxdf && !deltaBsdf)); }
@@ -86,17 +126,19 @@ struct WalkStats {
     RayLog* log = nullptr;  // usually null: one predictable branch per ray
 };
 
-// Which vertex densities a walk computes. All: pdfFwd and pdfRev of every vertex, re-evaluated at
-// the vertex positions (BPT, VCM, any MIS over the whole path). EmitterHits: only pdfFwd of
-// vertices on emitters (all the path tracer's MIS reads, see misReadLimit); the others are NaN,
-// so a reader that should not read them produces NaN samples, which are counted, not hidden.
+// Which vertex densities a walk computes. All: both densities of every vertex, re-evaluated at
+// the vertex positions (BPT, VCM, any MIS over the whole path). EmitterHits: only the walk's own
+// density (fromCamera of a camera walk) of vertices on emitters (all the path tracer's MIS reads,
+// see misReadLimit); the others are NaN, so a reader that should not read them produces NaN
+// samples, which are counted, not hidden.
 enum class WalkPdfs { All, EmitterHits };
 
 // Extends a subpath whose vertex path[0] (endpoint) is filled in, starting with `ray` whose
 // direction was sampled with solid-angle density pdfDir and throughput beta. Returns the number of
 // vertices (including path[0]); at most maxVertices. Stops at misses (adding a vertex at infinity
 // for camera walks when the scene has an environment light), absorption (Russian roulette after
-// rrDepth segments) or failed BSDF sampling.
+// rrDepth segments) or failed BSDF sampling. `mode` says which walk it is: Radiance for camera
+// subpaths (their own densities are fromCamera), Importance for light subpaths (fromLight).
 int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng, TransportMode mode,
                int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All);
 

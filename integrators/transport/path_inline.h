@@ -71,16 +71,16 @@ inline void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, 
     const int limit = readLimit < kMaxPathVertices ? readLimit + 1 : readLimit;
     for (int j = std::max(0, s + t - 1 - limit); j < t; ++j) {
         int i = s + t - 1 - j;
-        pdfs.fromCamera[i] = z[j].pdfFwd.value;
-        pdfs.fromLight[i] = z[j].pdfRev.value;
+        pdfs.fromCamera[i] = z[j].fromCamera.value;
+        pdfs.fromLight[i] = z[j].fromLight.value;
         pdfs.delta[i] = z[j].delta;
     }
 }
 
 inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs) {
     for (int i = 0; i < s; ++i) {
-        pdfs.fromLight[i] = y[i].pdfFwd.value;
-        pdfs.fromCamera[i] = y[i].pdfRev.value;
+        pdfs.fromLight[i] = y[i].fromLight.value;
+        pdfs.fromCamera[i] = y[i].fromCamera.value;
         pdfs.delta[i] = y[i].delta;
     }
     pdfs.lightHittable = s > 0 && y[0].light && y[0].light->isHittable();
@@ -95,25 +95,9 @@ inline bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, Pa
     float sel = scene.lightDistribution().probability(li);
     LightSampleLi ls = l.sampleLi(scene, refP, u);
     if (!(ls.pdfPos.value > 0.f) || !(sel > 0.f) || isBlack(ls.value)) return false;
-    // Every field is written (no default construction first: this is called per camera vertex).
-    out.kind = VertexKind::Light;
-    out.p = ls.p;
-    out.ng = ls.n;  // zero but for area lights
-    out.shading = Frame();
-    out.wo = Vec3(0.f);
-    out.bxdf = nullptr;
-    out.light = &l;
-    out.beta = Color(1.f / (sel * ls.pdfPos.value));
-    out.pdfFwd = AreaPdf(sel * ls.pdfPos.value);
-    out.pdfRev = AreaPdf(0.f);
-    out.lobe = kNone;
-    out.delta = false;
-    out.infinite = l.isInfinite();
-    out.deltaBsdf = false;
-    out.depth = 0;
-    out.roughness = 1.f;
-    out.segmentLength = 0.f;
-    out.pathLength = 0.f;
+    out.setPoint(ls.p, ls.n, &l, 1.f);  // ls.n: zero but for area lights
+    out.init(VertexKind::Light, nullptr, Vec3(0.f), 0.f, Color(1.f / (sel * ls.pdfPos.value)),
+             AreaPdf(sel * ls.pdfPos.value), AreaPdf(0.f), l.isInfinite());
     return true;
 }
 
