@@ -1,5 +1,6 @@
 // The shared path-vertex store of PT, BPT and VCM: one vertex record, one random walk, one
-// connection routine, one MIS routine.
+// connection routine, one MIS routine; and the seam where a regulariser changes them
+// (regularizer.h: the walks, connect, emitterHit and merge are templates on its policy).
 //
 // Indexing of a full path (used by the MIS routine): x_0 is the light end, x_{n-1} the camera.
 // A technique s takes x_0..x_{s-1} from a light subpath y and x_s..x_{n-1} from a camera
@@ -41,6 +42,7 @@
 #include "bsdf/surface_bsdf.h"
 #include "core/rng.h"
 #include "core/scene.h"
+#include "integrators/transport/regularizer.h"
 
 namespace lt {
 
@@ -63,13 +65,16 @@ struct PathVertex : SurfacePoint {
     // Fields regularisation reads (JG19, OPSR), besides roughness.
     float segmentLength = 0.f;  // length of the segment arriving at this vertex
     float pathLength = 0.f;     // sum of segment lengths from the endpoint to here
+    SubpathState regState;      // the regulariser's state (regularizer.h (3); None leaves it unset)
 
     // The one initialiser of a vertex record: every field but the surface point's, written once
-    // with no default construction first (it runs per vertex). `prev` is the vertex the walk came
-    // from, `toPrev` the unit direction to it and `segment` the distance (null, zero and 0 at an
-    // endpoint: depth 0, path length 0); the lobe is set when the walk continues from here.
-    void init(VertexKind k, const PathVertex* prev, const Vec3& toPrev, float segment, const Color& throughput,
-              AreaPdf pL, AreaPdf pC, bool atInfinity = false) {
+    // with no default construction first (it runs per vertex), then the regulariser's state
+    // (start at an endpoint, extend from prev). `prev` is the vertex the walk came from, `toPrev`
+    // the unit direction to it and `segment` the distance (null, zero and 0 at an endpoint:
+    // depth 0, path length 0); the lobe is set when the walk continues from here.
+    template <class Reg>
+    void init(const Reg& reg, VertexKind k, const PathVertex* prev, const Vec3& toPrev, float segment,
+              const Color& throughput, AreaPdf pL, AreaPdf pC, bool atInfinity = false) {
         kind = k;
         wo = toPrev;
         beta = throughput;
@@ -81,6 +86,8 @@ struct PathVertex : SurfacePoint {
         depth = prev ? uint16_t(prev->depth + 1) : uint16_t(0);
         segmentLength = segment;
         pathLength = prev ? prev->pathLength + segment : 0.f;
+        if (prev) reg.extend(*this, *prev);
+        else reg.start(*this);
     }
     // The surface-point fields of a vertex that is not a surface hit (the camera, a light endpoint,
     // a point at infinity): no BSDF and no shading frame.
@@ -133,24 +140,25 @@ struct WalkStats {
 // samples, which are counted, not hidden.
 enum class WalkPdfs { All, EmitterHits };
 
-// Extends a subpath whose vertex path[0] (endpoint) is filled in, starting with `ray` whose
-// direction was sampled with solid-angle density pdfDir and throughput beta. Returns the number of
-// vertices (including path[0]); at most maxVertices. Stops at misses (adding a vertex at infinity
-// for camera walks when the scene has an environment light), absorption (Russian roulette after
-// rrDepth segments) or failed BSDF sampling. `mode` says which walk it is: Radiance for camera
-// subpaths (their own densities are fromCamera), Importance for light subpaths (fromLight).
-int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng, TransportMode mode,
-               int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All);
-
+// The walks (path_templates.h; `reg` is the regulariser policy, regularizer.h, whose state each
+// vertex carries). A walk fills its endpoint path[0] and extends the subpath by a random walk;
+// it returns the number of vertices (including path[0]), at most maxVertices, and stops at misses
+// (adding a vertex at infinity for camera walks when the scene has an environment light),
+// absorption (Russian roulette after rrDepth segments) or failed BSDF sampling.
+//
 // Starts a light subpath: picks a light by power, samples an emitted ray. Returns the number of
 // vertices (0 when no light can emit). path[0] is the light endpoint.
-int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats);
+template <class Reg>
+int lightWalk(const Scene& scene, const Reg& reg, Rng& rng, int maxVertices, int rrDepth, PathVertex* path,
+              WalkStats& stats);
 
 // The pinhole camera as a path endpoint (z_0 of camera subpaths, the t = 1 end of light tracing).
-PathVertex cameraEndpoint(const Scene& scene);
+template <class Reg>
+PathVertex cameraEndpoint(const Scene& scene, const Reg& reg);
 
 // Starts a camera subpath through raster position `raster`.
-int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
+template <class Reg>
+int cameraWalk(const Scene& scene, const Reg& reg, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
                PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All);
 
 // ---- MIS ----------------------------------------------------------------------------------
@@ -177,7 +185,7 @@ struct MisConfig {
 };
 
 // The pdfs of one full path, gathered from both subpaths (with the values at the technique's own
-// connection vertices recomputed). Regularisation replaces entries here, per technique.
+// connection vertices recomputed), and a regulariser's per-technique factors on them.
 // Entries 0..n-1 are filled by the gathers (not at construction: the arrays are 600 bytes and
 // a connection is made per vertex), except that a limited gather (see misReadLimit) fills
 // only the entries its technique set reads.
@@ -194,6 +202,13 @@ struct PathPdfs {
     // relative to p_VC(base + 2) (cameraPrefixSum of the camera vertex x_{base+2}); the upward
     // sum stops there and entries above base + 1 are not read. Checked against the gathered form.
     double aboveBase = -1.0;
+    // Per-technique densities (regularizer.h (2)): when perTechnique, the density of connection
+    // technique k (k light vertices, 0..n) is its product of the entries above times
+    // connectionScale[k], that of the merge at x_i times mergeScale[i] (factors > 0, written by
+    // the regulariser; not read otherwise).
+    bool perTechnique = false;
+    std::array<float, kMaxPathVertices + 1> connectionScale;
+    std::array<float, kMaxPathVertices> mergeScale;
 };
 
 // Power-heuristic weight of connection technique s: p_s^2 / sum_k (n_k p_k)^2 over the techniques
@@ -209,7 +224,8 @@ inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set);
 // tracer's two techniques); for the tests that check the fast forms against the plain one.
 float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 
-// The highest index of a density (fromLight, fromCamera) the MIS sum of `cfg` can read; it reads
+// The highest index of a density (fromLight, fromCamera) the MIS sum of `cfg` can read (a
+// regulariser with per-technique densities makes every routine read all of them); it reads
 // delta flags up to one index higher (technique k compares the densities at x_{k-1} and needs
 // both neighbours' flags). The path tracer's two techniques (s = 0 and s = 1, no merging) compare
 // only x_0's two densities and read delta[0..1]: its gathers stop there, and its connections
@@ -221,8 +237,12 @@ inline int misReadLimit(const MisConfig& cfg) {
 }
 
 // ---- Connection ----------------------------------------------------------------------------
+// Each routine consults the regulariser `reg` (regularizer.h) with the technique's vertices: the
+// BSDF context at its connection (merge) vertices, and the per-technique densities of the path.
+//
 // A light endpoint for next-event estimation (technique s = 1), sampled from the scene's lights.
-inline bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVertex& out);
+template <class Reg>
+inline bool sampleLightVertex(const Scene& scene, const Reg& reg, const Vec3& refP, Rng& rng, PathVertex& out);
 
 struct Connection {
     Color contribution{0.f};  // unweighted: beta_y * f_y * G * f_z * beta_z, visibility included
@@ -239,13 +259,15 @@ struct Connection {
 // fold away): LightToSurface is next-event estimation, s = 1 with y[0] a light endpoint
 // (sampleLightVertex) and z[t-1] a surface vertex the caller found connectible and not at infinity.
 enum class ConnectEnds { Any, LightToSurface };
-template <ConnectEnds ends = ConnectEnds::Any>
-inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
-                    WalkStats& stats, int readLimit = kMaxPathVertices);
+template <ConnectEnds ends = ConnectEnds::Any, class Reg>
+inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
+                    Connection& c, WalkStats& stats, int readLimit = kMaxPathVertices);
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
-// fills the pdfs.
-Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
+// fills the pdfs (path_templates.h).
+template <class Reg>
+Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs,
+                 int readLimit = kMaxPathVertices);
 
 // Merge (vertex merging) of light vertex y[i] (i >= 1; `photon` holds what is needed of y[i] and
 // y[i-1], `lightPdfs` the densities of y[0..i]) with camera vertex z[t-1] (t >= 2): the
@@ -256,8 +278,10 @@ Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs,
 struct Photon;
 struct VertexPdfs;
 // With cameraSums (cameraSums[m] = cameraPrefixSum of z[m]) the camera side is O(1) too.
-bool merge(const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
-           const double* cameraSums = nullptr);
+// (path_templates.h)
+template <class Reg>
+bool merge(const Reg& reg, const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t,
+           Connection& c, const double* cameraSums = nullptr);
 
 // For light vertex y[m] of a light subpath (pdfs of y[0..m]): the sum over techniques k <= m of
 // (p_k / p_VC(m+1))^2 / (pC[m] / pL[m])^2, i.e. what a merge at y[m+1] needs of the light side
