@@ -186,7 +186,7 @@ struct MisConfig {
 
 // The pdfs of one full path, gathered from both subpaths (with the values at the technique's own
 // connection vertices recomputed), and a regulariser's per-technique factors on them.
-// Entries 0..n-1 are filled by the gathers (not at construction: the arrays are 600 bytes and
+// Entries 0..n-1 are filled by the gathers (not at construction: the arrays are over 1 KB and
 // a connection is made per vertex), except that a limited gather (see misReadLimit) fills
 // only the entries its technique set reads.
 struct PathPdfs {
