@@ -5,10 +5,11 @@
 // * A Bxdf works in the local shading frame: the shading normal is +z, cos(theta) = w.z.
 // * `wo` points towards the PREVIOUS vertex of the random walk (where the walk came from);
 //   `wi` points towards the NEXT vertex (the direction being sampled or evaluated).
-// * TransportMode says what the walk carries:
+// * Every call takes a BsdfContext (below): the transport mode and a regularisation request.
+//   The mode says what the walk carries:
 //     Radiance   (camera subpaths): wo points towards the camera side; light flows wi -> wo.
 //     Importance (light subpaths):  wo points towards the light side; light flows wo -> wi.
-//   eval(wo, wi, mode) returns the value to multiply by |cos(wi)| in the walk's throughput:
+//   eval(wo, wi, ctx) returns the value to multiply by |cos(wi)| in the walk's throughput:
 //   f(wi -> wo) for Radiance, the adjoint f*(wo, wi) = f(wo -> wi) for Importance. The two differ
 //   only for refraction (the 1/eta^2 radiance scaling is applied in Radiance mode only).
 //   The shading-normal adjoint correction is NOT in the Bxdf: see Bsdf (world-space wrapper).
@@ -17,7 +18,8 @@
 // * A delta lobe (smooth conductor/dielectric, alpha below kMinAlpha) is never returned by eval
 //   (f = 0, pdfs = 0); sample() returns it with the Delta flag, weight = f|cos|/pdf, and pdfFwd /
 //   pdfRev set to the discrete probability of choosing that lobe (the walk turns it into the
-//   generalised density of core/path.h, "Delta vertices", with |cos| and eta^2 = BsdfSample::eta^2).
+//   generalised density of integrators/transport/path.h, "Delta vertices", with |cos| and
+//   eta^2 = BsdfSample::eta^2).
 #pragma once
 #include <memory>
 #include <string>
@@ -40,11 +42,50 @@ enum BsdfFlags : uint32_t {
 // Microfacet alphas below this are treated as a delta lobe (smooth surface).
 inline constexpr float kMinAlpha = 1e-4f;
 
-// Overridden microfacet roughness for regularisation (JG19, OPSR). Ignored by lobes that are
-// not microfacet based (diffuse). A delta lobe given an override becomes a rough lobe.
+// A pair of microfacet alphas (u: tangent axis, v: bitangent axis).
 struct Roughness {
     float alphaU = 0.f, alphaV = 0.f;
 };
+
+// What a regulariser asks of one BSDF call (JG19, KD13, OPSR: issues 13-15). Empty by default,
+// and an empty request leaves every BSDF exactly as its material defines it. The caller states
+// what it wants; each lobe resolves it with its own distribution, masking model and eta, which
+// the caller does not know (bsdf/microfacet.h, MicrofacetLobe::resolve):
+//   minAlpha  a microfacet lobe uses alpha' = max(alpha, minAlpha) per axis (OPSR's accumulated
+//             roughness, or any alpha a regulariser computed itself);
+//   tau       a bound on the value of f (JG19 Sec. 3.2): a microfacet lobe uses
+//             alpha' = max(alpha, alpha_hat(tau)) per axis, alpha_hat = alphaForBound
+//             (roughness_bound.h) of its distribution, masking, and reflection or transmission
+//             with its eta (eval: the lobe of the pair; sample: see the dielectric);
+//   cone      half-angle in radians of KD13's cone mollifier of delta lobes. Carried for KD13
+//             (issue 14): no lobe reads it yet, a smooth lobe stays a delta.
+// A smooth (delta) conductor or dielectric whose resolved alpha reaches kMinAlpha becomes a rough
+// GGX/Smith lobe. Diffuse lobes ignore the request.
+struct RegularizationRequest {
+    Roughness minAlpha;  // {0, 0}: none
+    float tau = kInf;    // +inf: none
+    float cone = 0.f;    // 0: none
+    bool empty() const {
+        return !(minAlpha.alphaU > 0.f) && !(minAlpha.alphaV > 0.f) && !(tau < kInf) && !(cone > 0.f);
+    }
+};
+
+// The context of one BSDF call, besides the directions (Mitsuba 3's BSDFContext is the model):
+// the transport mode and the regularisation request. A TransportMode converts to the context
+// without a request.
+struct BsdfContext {
+    TransportMode mode = TransportMode::Radiance;
+    RegularizationRequest reg;
+    constexpr BsdfContext(TransportMode m = TransportMode::Radiance) : mode(m) {}
+    constexpr BsdfContext(TransportMode m, const RegularizationRequest& r) : mode(m), reg(r) {}
+};
+// The two contexts without a request, for the walks and connections (a reference to one of
+// these is passed, no context is built per call).
+inline constexpr BsdfContext kRadianceContext{TransportMode::Radiance};
+inline constexpr BsdfContext kImportanceContext{TransportMode::Importance};
+inline const BsdfContext& plainContext(TransportMode mode) {
+    return mode == TransportMode::Radiance ? kRadianceContext : kImportanceContext;
+}
 
 struct BsdfEval {
     Color f{0.f};
@@ -96,11 +137,9 @@ struct Lambert {
 class Bxdf {
 public:
     virtual ~Bxdf() = default;
-    virtual BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode mode,
-                          const Roughness* rough = nullptr) const = 0;
+    virtual BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const = 0;
     // uLobe chooses between lobes (reflection/transmission), u the direction.
-    virtual bool sample(const Vec3& wo, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& out,
-                        const Roughness* rough = nullptr) const = 0;
+    virtual bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const = 0;
     // Union of the flags of all lobes.
     virtual uint32_t flags() const = 0;
     // Scalar roughness in [0,1] for accumulated roughness (OPSR): 0 delta, 1 diffuse,

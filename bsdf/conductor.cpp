@@ -12,31 +12,17 @@ class ConductorBxdf final : public Bxdf {
 public:
     ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
                   const Color& k, const Color& specR)
-        : rough_(rough), dist_(dist), masking_(masking), au_(rough ? au : 0.f), av_(rough ? av : 0.f), eta_(eta),
-          k_(k), specR_(specR) {}
+        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {}
 
-    BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode, const Roughness* rough) const override {
-        BsdfEval e;
-        const EffectiveAlpha a = effectiveAlpha(au_, av_, rough);
-        if (a.delta || !(wo.z > 0.f) || !(wi.z > 0.f)) return e;
-        const Microfacet mf(dist_, a.u, a.v, masking_);
-        Vec3 h = wo + wi;
-        const float l2 = glm::dot(h, h);
-        if (!(l2 > 0.f)) return e;
-        h /= std::sqrt(l2);
-        const float base = microfacetReflection(mf, wo, wi);
-        if (!(base > 0.f)) return e;
-        // Fresnel at the average of wo.h and wi.h (equal up to rounding): exactly reciprocal.
-        e.f = specR_ * fresnelConductor(0.5f * (glm::dot(wo, h) + glm::dot(wi, h)), eta_, k_) * base;
-        e.pdfFwd = SolidAnglePdf(pdfReflect(mf, wo, h));
-        e.pdfRev = SolidAnglePdf(pdfReflect(mf, wi, h));
-        return e;
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
+        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
+        if (a.delta) return BsdfEval{};
+        return evalRough(lobe_.microfacet(a), wo, wi);
     }
 
-    bool sample(const Vec3& wo, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& out,
-                const Roughness* rough) const override {
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
         if (!(wo.z > 0.f)) return false;
-        const EffectiveAlpha a = effectiveAlpha(au_, av_, rough);
+        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
         if (a.delta) {
             out.wi = Vec3(-wo.x, -wo.y, wo.z);
             out.weight = specR_ * fresnelConductor(wo.z, eta_, k_);
@@ -45,14 +31,14 @@ public:
             out.eta = 1.f;
             return true;
         }
-        const Microfacet mf(dist_, a.u, a.v, masking_);
+        const Microfacet mf = lobe_.microfacet(a);
         float uExtra = uLobe;
         const Vec3 m = mf.sampleVisible(wo, u, uExtra);
         const float wom = glm::dot(wo, m);
         if (!(wom > 0.f)) return false;
         const Vec3 wi = reflectAbout(wo, m);
         if (!(wi.z > 0.f)) return false;
-        const BsdfEval e = eval(wo, wi, mode, rough);
+        const BsdfEval e = evalRough(mf, wo, wi);
         if (!(e.pdfFwd.value > 0.f) || !std::isfinite(e.pdfFwd.value)) return false;
         const float g1 = mf.G1(wo, m);
         if (!(g1 > 0.f)) return false;
@@ -67,11 +53,28 @@ public:
     }
 
     uint32_t flags() const override { return rough_ ? (kReflection | kGlossy) : (kReflection | kDelta); }
-    float roughness() const override { return rough_ ? scalarRoughness(au_, av_) : 0.f; }
-    Roughness alpha() const override { return {au_, av_}; }
+    float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
+    Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }
 
 private:
+    // The rough lobe with the alphas of one call (the material's, or the regularised ones).
+    BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi) const {
+        BsdfEval e;
+        if (!(wo.z > 0.f) || !(wi.z > 0.f)) return e;
+        Vec3 h = wo + wi;
+        const float l2 = glm::dot(h, h);
+        if (!(l2 > 0.f)) return e;
+        h /= std::sqrt(l2);
+        const float base = microfacetReflection(mf, wo, wi);
+        if (!(base > 0.f)) return e;
+        // Fresnel at the average of wo.h and wi.h (equal up to rounding): exactly reciprocal.
+        e.f = specR_ * fresnelConductor(0.5f * (glm::dot(wo, h) + glm::dot(wi, h)), eta_, k_) * base;
+        e.pdfFwd = SolidAnglePdf(pdfReflect(mf, wo, h));
+        e.pdfRev = SolidAnglePdf(pdfReflect(mf, wi, h));
+        return e;
+    }
+
     // Density of sampling the reflection of w about h: D_w(h) / (4 w.h).
     static float pdfReflect(const Microfacet& mf, const Vec3& w, const Vec3& h) {
         const float wh = glm::dot(w, h);
@@ -80,16 +83,14 @@ private:
     }
 
     bool rough_;
-    MicrofacetType dist_;
-    MaskingModel masking_;
-    float au_, av_;
+    MicrofacetLobe lobe_;
     Color eta_, k_, specR_;
 };
 
 }  // namespace
 
 BxdfPtr makeConductor(const Color& eta, const Color& k, const Color& specularReflectance) {
-    // A smooth conductor given a roughness override becomes a GGX/Smith rough conductor.
+    // A smooth conductor given a regularisation request (bsdf.h) becomes a GGX/Smith rough conductor.
     return std::make_shared<ConductorBxdf>(false, MicrofacetType::GGX, 0.f, 0.f, MaskingModel::Smith, eta, k,
                                            specularReflectance);
 }

@@ -19,33 +19,23 @@ class DielectricBxdf final : public Bxdf {
 public:
     DielectricBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, float eta,
                    const Color& specR, const Color& specT)
-        : rough_(rough), dist_(dist), masking_(masking), au_(rough ? au : 0.f), av_(rough ? av : 0.f), eta_(eta),
-          specR_(specR), specT_(specT) {}
+        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), specR_(specR),
+          specT_(specT) {}
 
-    BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode mode, const Roughness* rough) const override {
-        BsdfEval e;
-        const EffectiveAlpha a = effectiveAlpha(au_, av_, rough);
-        if (a.delta || eta_ == 1.f || wo.z == 0.f || wi.z == 0.f) return e;
-        const Microfacet mf(dist_, a.u, a.v, masking_);
-        if (wo.z * wi.z > 0.f) {
-            const Vec3 h = glm::normalize(wo + wi);
-            e.f = specR_ * (reflectionFresnel(wo, wi, h) * microfacetReflection(mf, wo, wi));
-        } else {
-            const RefractionGeometry g = refractionGeometry(wo, wi);
-            if (!g.valid) return e;
-            e.f = specT_ * ((1.f - g.F) * microfacetTransmission(mf, wo, wi, eta_, mode));
-        }
-        e.pdfFwd = SolidAnglePdf(pdfImpl(mf, wo, wi));
-        e.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo));
-        return e;
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
+        if (eta_ == 1.f || wo.z == 0.f || wi.z == 0.f) return BsdfEval{};
+        // The request resolved for the lobe of this pair (reflection or transmission).
+        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, !(wo.z * wi.z > 0.f), eta_);
+        if (a.delta) return BsdfEval{};
+        return evalRough(lobe_.microfacet(a), wo, wi, ctx.mode);
     }
 
-    bool sample(const Vec3& wo, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& out,
-                const Roughness* rough) const override {
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
         if (wo.z == 0.f) return false;
         const float s = wo.z > 0.f ? 1.f : -1.f;
         const Vec3 o = wo * s;
         const float etaRel = s > 0.f ? eta_ : 1.f / eta_;
+        const TransportMode mode = ctx.mode;
         if (eta_ == 1.f) {  // index matched: straight through
             out.wi = -wo;
             out.weight = specT_;
@@ -54,7 +44,12 @@ public:
             out.eta = 1.f;
             return true;
         }
-        const EffectiveAlpha a = effectiveAlpha(au_, av_, rough);
+        // The lobe is chosen only after the microfacet normal, so one alpha serves both lobes here:
+        // a request is resolved with the transmission bound, the larger alpha_hat of the two (for
+        // every eta, rho_bar_t / rho_bar_r = 4 max(n_i, n_t)^2 / (n_i - n_t)^2 > 4), and the
+        // returned pdfs and weight are those of that alpha. (eval resolves per pair; the walks
+        // never sample a regularised BSDF, JG19 Sec. 3.)
+        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, true, eta_);
         if (a.delta) {
             float cosT;
             const float F = fresnelDielectric(o.z, etaRel, &cosT);
@@ -75,7 +70,7 @@ public:
             }
             return true;
         }
-        const Microfacet mf(dist_, a.u, a.v, masking_);
+        const Microfacet mf = lobe_.microfacet(a);
         float uSel = uLobe;
         const Vec3 m = mf.sampleVisible(o, u, uSel);
         const float om = glm::dot(o, m);
@@ -90,7 +85,7 @@ public:
             if (!refractAbout(o, m, etaRel, i) || !(i.z < 0.f)) return false;
         }
         const Vec3 wi = i * s;
-        const BsdfEval e = eval(wo, wi, mode, rough);
+        const BsdfEval e = evalRough(mf, wo, wi, mode);
         if (!(e.pdfFwd.value > 0.f) || !std::isfinite(e.pdfFwd.value)) return false;
         const float g1 = mf.G1(o, m);
         if (!(g1 > 0.f)) return false;
@@ -115,11 +110,28 @@ public:
         if (eta_ == 1.f) return kTransmission | kDelta;
         return rough_ ? (kReflection | kTransmission | kGlossy) : (kReflection | kTransmission | kDelta);
     }
-    float roughness() const override { return rough_ ? scalarRoughness(au_, av_) : 0.f; }
-    Roughness alpha() const override { return {au_, av_}; }
+    float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
+    Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }
 
 private:
+    // The rough lobes with the alphas of one call (the material's, or the regularised ones), for
+    // wo.z != 0, wi.z != 0 and eta != 1.
+    BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi, TransportMode mode) const {
+        BsdfEval e;
+        if (wo.z * wi.z > 0.f) {
+            const Vec3 h = glm::normalize(wo + wi);
+            e.f = specR_ * (reflectionFresnel(wo, wi, h) * microfacetReflection(mf, wo, wi));
+        } else {
+            const RefractionGeometry g = refractionGeometry(wo, wi);
+            if (!g.valid) return e;
+            e.f = specT_ * ((1.f - g.F) * microfacetTransmission(mf, wo, wi, eta_, mode));
+        }
+        e.pdfFwd = SolidAnglePdf(pdfImpl(mf, wo, wi));
+        e.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo));
+        return e;
+    }
+
     // Fresnel of a reflection pair, symmetric in (wo, wi): wo.h == wi.h up to rounding, and
     // near the critical angle F is steep, so the average is used for bitwise reciprocity.
     float reflectionFresnel(const Vec3& wo, const Vec3& wi, const Vec3& h) const {
@@ -180,9 +192,7 @@ private:
     }
 
     bool rough_;
-    MicrofacetType dist_;
-    MaskingModel masking_;
-    float au_, av_;
+    MicrofacetLobe lobe_;
     float eta_;
     Color specR_, specT_;
 };
@@ -190,7 +200,7 @@ private:
 }  // namespace
 
 BxdfPtr makeDielectric(float eta, const Color& specularReflectance, const Color& specularTransmittance) {
-    // With a roughness override a smooth dielectric becomes a GGX/Smith rough dielectric.
+    // Given a regularisation request (bsdf.h) a smooth dielectric becomes a GGX/Smith rough dielectric.
     return std::make_shared<DielectricBxdf>(false, MicrofacetType::GGX, 0.f, 0.f, MaskingModel::Smith, eta,
                                             specularReflectance, specularTransmittance);
 }

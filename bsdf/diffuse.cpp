@@ -12,11 +12,8 @@ public:
     DiffuseBxdf(const DiffuseBxdf&) = delete;  // lambert_ points into this object
     DiffuseBxdf& operator=(const DiffuseBxdf&) = delete;
 
-    BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode, const Roughness*) const override {
-        return model_.eval(wo, wi);
-    }
-    bool sample(const Vec3& wo, float, const Vec2& u, TransportMode, BsdfSample& out,
-                const Roughness*) const override {
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext&) const override { return model_.eval(wo, wi); }
+    bool sample(const Vec3& wo, float, const Vec2& u, const BsdfContext&, BsdfSample& out) const override {
         return model_.sample(wo, u, out);
     }
 
@@ -34,19 +31,18 @@ class TwoSidedBxdf final : public Bxdf {
 public:
     explicit TwoSidedBxdf(BxdfPtr inner) : inner_(std::move(inner)) {}
 
-    BsdfEval eval(const Vec3& wo, const Vec3& wi, TransportMode mode, const Roughness* rough) const override {
-        if (wo.z < 0.f) return inner_->eval(flip(wo), flip(wi), mode, rough);
-        return inner_->eval(wo, wi, mode, rough);
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
+        if (wo.z < 0.f) return inner_->eval(flip(wo), flip(wi), ctx);
+        return inner_->eval(wo, wi, ctx);
     }
 
-    bool sample(const Vec3& wo, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& out,
-                const Roughness* rough) const override {
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
         if (wo.z < 0.f) {
-            if (!inner_->sample(flip(wo), uLobe, u, mode, out, rough)) return false;
+            if (!inner_->sample(flip(wo), uLobe, u, ctx, out)) return false;
             out.wi = flip(out.wi);
             return true;
         }
-        return inner_->sample(wo, uLobe, u, mode, out, rough);
+        return inner_->sample(wo, uLobe, u, ctx, out);
     }
 
     uint32_t flags() const override { return inner_->flags(); }

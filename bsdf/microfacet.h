@@ -24,6 +24,7 @@
 //   density is exactly D_w(m) with the V-cavity G1 (pdfVisible).
 #pragma once
 #include "bsdf/bsdf.h"
+#include "bsdf/roughness_bound.h"
 #include "core/math.h"
 
 namespace lt {
@@ -67,21 +68,33 @@ private:
     float au_, av_;
 };
 
-// The alphas a microfacet material uses for one evaluation: the override's if one is given
-// (Roughness, bsdf.h), else the material's own. delta is true when both are below kMinAlpha
-// (the material then behaves as its smooth, delta variant); otherwise Microfacet clamps each
-// alpha to at least kMinAlpha.
-struct EffectiveAlpha {
-    float u = 0.f, v = 0.f;
-    bool delta = true;
-};
-inline EffectiveAlpha effectiveAlpha(float alphaU, float alphaV, const Roughness* override) {
-    if (override) {
-        alphaU = override->alphaU;
-        alphaV = override->alphaV;
+// A microfacet material's lobe as the material defines it (alphas 0 for a smooth material), and
+// the alphas it uses for one call: its own, raised by the context's regularisation request
+// (bsdf.h) as the lobe resolves it, max(alpha, minAlpha, alpha_hat(tau)) per axis, with
+// alpha_hat = alphaForBound for this lobe's distribution and masking, reflection or transmission,
+// and eta. An empty request gives the material's own alphas, as they are. delta is true when both
+// resolved alphas are below kMinAlpha (the material then behaves as its smooth, delta variant);
+// otherwise Microfacet clamps each alpha to at least kMinAlpha.
+struct MicrofacetLobe {
+    MicrofacetType type;
+    MaskingModel masking;
+    float alphaU, alphaV;
+
+    struct Resolved {
+        float u = 0.f, v = 0.f;
+        bool delta = true;
+    };
+    Resolved resolve(const RegularizationRequest& r, bool transmission, float eta) const {
+        float u = std::max(alphaU, r.minAlpha.alphaU), v = std::max(alphaV, r.minAlpha.alphaV);
+        if (r.tau < kInf) {
+            const float a = alphaForBound(type, masking, r.tau, transmission, eta);
+            u = std::max(u, a);
+            v = std::max(v, a);
+        }
+        return {u, v, !(std::max(u, v) >= kMinAlpha)};
     }
-    return {alphaU, alphaV, !(std::max(alphaU, alphaV) >= kMinAlpha)};
-}
+    Microfacet microfacet(const Resolved& a) const { return Microfacet(type, a.u, a.v, masking); }
+};
 // Scalar roughness for OPSR: sqrt(alphaU alphaV) clamped to [0, 1].
 inline float scalarRoughness(float alphaU, float alphaV) {
     return std::clamp(std::sqrt(std::max(0.f, alphaU * alphaV)), 0.f, 1.f);

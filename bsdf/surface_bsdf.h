@@ -23,30 +23,29 @@ public:
     // expressions as before, so the same floats). The correction is computed before the virtual
     // call, so that only it has to survive the call (all xmm registers are caller-saved), and it
     // is applied unconditionally: it is 1 in Radiance mode and x * 1 == x exactly.
-    BsdfEval eval(const Vec3& woW, const Vec3& wiW, TransportMode mode, const Roughness* rough = nullptr) const {
+    BsdfEval eval(const Vec3& woW, const Vec3& wiW, const BsdfContext& ctx) const {
         BsdfEval e;  // the one returned object (NRVO: the Bxdf writes straight into the caller's)
         const Vec3 n = frame_.n, ng = ng_;
         const float woN = glm::dot(woW, n), woG = glm::dot(woW, ng);
         const float wiN = glm::dot(wiW, n), wiG = glm::dot(wiW, ng);
         if (!consistent(woG, woN) || !consistent(wiG, wiN)) return e;
-        const float corr = mode == TransportMode::Importance && !gTestDisableAdjointCorrection
+        const float corr = ctx.mode == TransportMode::Importance && !gTestDisableAdjointCorrection
                                ? adjointCorrection(woN, woG, wiN, wiG)
                                : 1.f;
         const Vec3 wo(glm::dot(woW, frame_.s), glm::dot(woW, frame_.t), woN);
         const Vec3 wi(glm::dot(wiW, frame_.s), glm::dot(wiW, frame_.t), wiN);
         const Lambert* lambert = bxdf_->lambert();
-        e = lambert ? lambert->eval(wo, wi) : bxdf_->eval(wo, wi, mode, rough);
+        e = lambert ? lambert->eval(wo, wi) : bxdf_->eval(wo, wi, ctx);
         e.f *= corr;
         return e;
     }
 
-    bool sample(const Vec3& woW, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& s,
-                const Roughness* rough = nullptr) const {
+    bool sample(const Vec3& woW, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& s) const {
         const float woN = glm::dot(woW, frame_.n), woG = glm::dot(woW, ng_);
         if (!consistent(woG, woN)) return false;
         const Vec3 wo(glm::dot(woW, frame_.s), glm::dot(woW, frame_.t), woN);
         const Lambert* lambert = bxdf_->lambert();
-        if (!(lambert ? lambert->sample(wo, u, s) : bxdf_->sample(wo, uLobe, u, mode, s, rough))) return false;
+        if (!(lambert ? lambert->sample(wo, u, s) : bxdf_->sample(wo, uLobe, u, ctx, s))) return false;
         const Frame& f = frame_;
         const Vec3 wi = f.toWorld(s.wi);
         s.wi.x = wi.x;  // per component: a Vec3 copy goes through the stack
@@ -54,7 +53,7 @@ public:
         s.wi.z = wi.z;
         const float wiN = glm::dot(wi, f.n), wiG = glm::dot(wi, ng_);
         if (!consistent(wiG, wiN)) return false;
-        if (mode == TransportMode::Importance && !gTestDisableAdjointCorrection)
+        if (ctx.mode == TransportMode::Importance && !gTestDisableAdjointCorrection)
             s.weight *= adjointCorrection(woN, woG, wiN, wiG);
         return true;
     }

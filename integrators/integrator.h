@@ -4,7 +4,7 @@
 #include <memory>
 #include <string>
 #include "core/film.h"
-#include "core/path.h"
+#include "integrators/transport/path.h"
 #include "core/scene.h"
 
 namespace lt {

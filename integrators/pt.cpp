@@ -1,5 +1,7 @@
 // Unidirectional path tracer with next-event estimation and MIS: the camera walk of the shared
 // path-vertex store, evaluated with the two techniques s = 0 (emitter hit) and s = 1 (NEE).
+// A class template on the regulariser policy (integrators/transport/regularizer.h), which the
+// loop passes to the walk, emitterHit and connect without knowing which one runs.
 #include <stdexcept>
 #include "integrators/integrator.h"
 
@@ -7,9 +9,10 @@ namespace lt {
 
 namespace {
 
+template <class Reg>
 class PathTracer final : public Integrator {
 public:
-    explicit PathTracer(const RenderSettings& s) : settings_(s) {
+    PathTracer(const RenderSettings& s, const Reg& reg) : settings_(s), reg_(reg) {
         if (s.ptStrategy == "mis") strategy_ = Strategy::Mis;
         else if (s.ptStrategy == "nee") strategy_ = Strategy::Nee;
         else if (s.ptStrategy == "bsdf") strategy_ = Strategy::Bsdf;
@@ -36,11 +39,17 @@ public:
             }
     }
 
-    // Flattened: sampleLightVertex, connect and the MIS weight (core/path_inline.h) are compiled
-    // into this loop, specialised for s = 1, readLimit = 0 and its known ends (ConnectEnds).
+    // Flattened: sampleLightVertex, connect and the MIS weight (integrators/transport/path_inline.h)
+    // are compiled into this loop, specialised for s = 1, readLimit = 0 and its known ends (ConnectEnds).
+    // Each of the three measured alone against its plain form (PT, cornell-box and glass-sphere box;
+    // paired whole-process runs, 1 thread, A/B medians): readLimit 0.94 of the time (every pair
+    // faster) and -6.4% / -4.7% instructions; ConnectEnds and flatten 0.95-1.00 and 0.97-1.00 of the
+    // time (within the shared machine's noise) and -2.2% / -1.6%, -2.4% / -1.7% instructions. All kept:
+    // none touches the regulariser's hooks, and without the last two PT would run ~2% more
+    // instructions than before the seam.
     [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z,
                                     PathPdfs& pdfs, WalkStats& stats) const {
-        int nz = cameraWalk(scene, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats, WalkPdfs::EmitterHits);
+        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats, WalkPdfs::EmitterHits);
         Color L(0.f);
         const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
         for (int t = 2; t <= nz; ++t) {
@@ -48,7 +57,7 @@ public:
             // s = 0: the walk hit an emitter (t - 1 segments).
             bool neeImpossible = t == 2 || !z[t - 2].connectible();
             if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
-                Color c = emitterHit(scene, z, t, pdfs, readLimit);
+                Color c = emitterHit(scene, reg_, z, t, pdfs, readLimit);
                 if (!isBlack(c))
                     L += c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
             }
@@ -58,8 +67,8 @@ public:
                 // fields connect does not read are dropped by the compiler, the rest stay in registers.
                 PathVertex y;
                 Connection conn;
-                if (sampleLightVertex(scene, v.p, rng, y) &&
-                    connect<ConnectEnds::LightToSurface>(scene, &y, 1, z, t, conn, stats, readLimit))
+                if (sampleLightVertex(scene, reg_, v.p, rng, y) &&
+                    connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit))
                     L += conn.contribution *
                          (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
             }
@@ -70,11 +79,14 @@ public:
 private:
     enum class Strategy { Mis, Nee, Bsdf };
     RenderSettings settings_;
+    Reg reg_;
     Strategy strategy_ = Strategy::Mis;
 };
 
 }  // namespace
 
-std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s) { return std::make_unique<PathTracer>(s); }
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::None& reg) {
+    return std::make_unique<PathTracer<reg::None>>(s, reg);
+}
 
 }  // namespace lt

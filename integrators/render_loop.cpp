@@ -8,8 +8,8 @@
 
 namespace lt {
 
-std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s);
-std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s);
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::None& reg);
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::None& reg);
 
 std::string supportedIntegrators() { return "pt, bpt, vcm, lt, ppm"; }
 
@@ -21,10 +21,14 @@ std::string integratorForSceneType(const std::string& t) {
     return t;
 }
 
+// The one place that chooses the regulariser (regularizer.h). Today only reg::None exists; a
+// regulariser adds its settings to RenderSettings, its policy type here, and an instantiation of
+// the integrators and of path_templates.h (integrators/transport/path.cpp) for it.
 std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
-    if (s.integrator == "pt") return makePathTracer(s);
+    const reg::None reg;
+    if (s.integrator == "pt") return makePathTracer(s, reg);
     if (s.integrator == "bpt" || s.integrator == "vcm" || s.integrator == "lt" || s.integrator == "ppm")
-        return makeBidirectional(s);
+        return makeBidirectional(s, reg);
     throw std::invalid_argument("unknown integrator '" + s.integrator + "' (supported: " + supportedIntegrators() + ")");
 }
 

@@ -13,7 +13,7 @@
 #include <fmt/core.h>
 #include <mutex>
 #include <stdexcept>
-#include "core/light_paths.h"
+#include "integrators/transport/light_paths.h"
 #include "integrators/integrator.h"
 
 namespace lt {
@@ -55,9 +55,12 @@ private:
     std::vector<std::vector<glm::dvec3>> conn_, merge_;
 };
 
+// A class template on the regulariser policy (integrators/transport/regularizer.h), which the loops
+// pass to the walks, connect, emitterHit and merge without knowing which one runs.
+template <class Reg>
 class Bidirectional final : public Integrator {
 public:
-    explicit Bidirectional(const RenderSettings& s) : settings_(s) {
+    Bidirectional(const RenderSettings& s, const Reg& reg) : settings_(s), reg_(reg) {
         const std::string& m = s.integrator;
         useConnections_ = m == "bpt" || m == "vcm";
         useLightTracing_ = m == "bpt" || m == "vcm" || m == "lt";
@@ -97,10 +100,10 @@ public:
             splat.clear();
             WalkStats ws;
             std::array<PathVertex, kMaxPathVertices> y;
-            PathVertex camera = cameraEndpoint(scene);
+            PathVertex camera = cameraEndpoint(scene, reg_);
             for (size_t j = c * kChunk; j < std::min(nPaths, (c + 1) * kChunk); ++j) {
                 Rng rng = Rng::forSample(settings_.seed, j, pass, /*domain=*/1);
-                int ny = lightWalk(scene, rng, maxLight, settings_.rrDepth, y.data(), ws);
+                int ny = lightWalk(scene, reg_, rng, maxLight, settings_.rrDepth, y.data(), ws);
                 chunk.counts.push_back(uint32_t(ny));
                 chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
                 if (useLightTracing_) lightTrace(scene, film, y.data(), ny, camera, splat, ws);
@@ -145,7 +148,7 @@ private:
         for (int s = 1; s <= ny && s <= maxDepth_; ++s) {
             if (s == 1 && (y[0].light->isDeltaPosition() || settings_.hideEmitters)) continue;  // as PT: point lights are not seen
             Connection c;
-            if (!connect(scene, y, s, &camera, 1, c, ws)) continue;
+            if (!connect(scene, reg_, y, s, &camera, 1, c, ws)) continue;
             float w = connectionWeight(c.pdfs, s, 1);
             film.splat(splat, c.raster, c.contribution * w, uint16_t(s));
         }
@@ -153,7 +156,7 @@ private:
 
     Color radiance(const Scene& scene, const Vec2& raster, uint32_t pixel, Rng& rng, PathVertex* z,
                    WalkStats& stats) const {
-        int nz = cameraWalk(scene, raster, rng, maxDepth_ + 1, settings_.rrDepth, z, stats);
+        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth_ + 1, settings_.rrDepth, z, stats);
         const PathVertex* y = store_.path(pixel);
         const int ny = store_.length(pixel);
         const float mergeNorm = 1.f / (cfg_.mergeArea * cfg_.lightPaths);
@@ -177,7 +180,7 @@ private:
             if (useMerging_) grid_.fetch(cells[t - 1]);
             // s = 0: emitter hit.
             if (v.light && !(settings_.hideEmitters && t == 2) && (useConnections_ || (ppm_ && allDelta))) {
-                Color c = emitterHit(scene, z, t, pdfs);
+                Color c = emitterHit(scene, reg_, z, t, pdfs);
                 if (!isBlack(c)) record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel);
             }
             if (v.infinite || !v.connectible()) {
@@ -188,11 +191,12 @@ private:
                 // s = 1: next-event estimation with a fresh light sample.
                 PathVertex lv;
                 Connection c;
-                if (t <= maxDepth_ && sampleLightVertex(scene, v.p, rng, lv) && connect(scene, &lv, 1, z, t, c, stats))
+                if (t <= maxDepth_ && sampleLightVertex(scene, reg_, v.p, rng, lv) &&
+                    connect(scene, reg_, &lv, 1, z, t, c, stats))
                     record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel);
                 // s >= 2: the pixel's own light subpath.
                 for (int s = 2; s <= ny && s + t - 1 <= maxDepth_; ++s)
-                    if (connect(scene, y, s, z, t, c, stats))
+                    if (connect(scene, reg_, y, s, z, t, c, stats))
                         record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel);
             }
             if (useMerging_) {
@@ -200,7 +204,8 @@ private:
                 grid_.scan(v.p, cells[t - 1], [&](const Photon& ph) {
                     int i = ph.depth;
                     if (i + t - 1 > maxDepth_) return;
-                    if (!merge(ph, nullptr, z, t, c, cameraSums.data())) return;  // fast form (tested against the gathered)
+                    // the fast form (tested against the gathered)
+                    if (!merge(reg_, ph, nullptr, z, t, c, cameraSums.data())) return;
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
                     record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel);
                 });
@@ -224,6 +229,7 @@ private:
     }
 
     RenderSettings settings_;
+    Reg reg_;
     MisConfig cfg_;
     bool useConnections_ = false, useLightTracing_ = false, useMerging_ = false, ppm_ = false;
     int maxDepth_ = 0;
@@ -237,6 +243,8 @@ private:
 
 }  // namespace
 
-std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s) { return std::make_unique<Bidirectional>(s); }
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::None& reg) {
+    return std::make_unique<Bidirectional<reg::None>>(s, reg);
+}
 
 }  // namespace lt

@@ -19,6 +19,7 @@
 #include "bsdf/fresnel.h"
 #include "bsdf/ior.h"
 #include "bsdf/microfacet.h"
+#include "bsdf/roughness_bound.h"
 #include "chi2.h"
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -29,6 +30,13 @@ namespace {
 
 constexpr float kPhiO = 0.7f;  // azimuth of wo in most tests: not aligned with the anisotropy axes
 const Color kCuEta(0.200438f, 0.924033f, 1.10221f), kCuK(3.91295f, 2.45285f, 2.14219f);
+
+// The request of a minimum alpha (none when not given).
+RegularizationRequest minAlphaRequest(const std::optional<Roughness>& minAlpha) {
+    RegularizationRequest r;
+    if (minAlpha) r.minAlpha = *minAlpha;
+    return r;
+}
 
 Vec3 dirDeg(float thetaDeg, float phi = kPhiO) {
     const float t = glm::radians(thetaDeg);
@@ -53,7 +61,7 @@ struct Chi2Case {
     std::string name;
     BxdfPtr bxdf;
     Vec3 wo;
-    std::optional<Roughness> rough;
+    std::optional<Roughness> rough;  // a minimum-alpha request (bsdf.h), if any
     long long n;
 };
 
@@ -79,7 +87,7 @@ std::vector<Chi2Case> conductorCases() {
     c.push_back({"twosided(roughconductor GGX 0.3) from below",
                  makeTwoSided(makeRoughConductor(MicrofacetType::GGX, 0.3f, 0.3f, kCuEta, kCuK, Color(1.f))), below, {},
                  250000});
-    c.push_back({"conductor (smooth) with roughness override (0.2,0.1)", makeConductor(kCuEta, kCuK, Color(1.f)),
+    c.push_back({"conductor (smooth) with minimum alpha (0.2,0.1)", makeConductor(kCuEta, kCuK, Color(1.f)),
                  dirDeg(45.f), Roughness{0.2f, 0.1f}, 250000});
     return c;
 }
@@ -103,7 +111,7 @@ std::vector<Chi2Case> dielectricCases() {
                 c.push_back({fmtCase("roughdielectric (inside)", d, m, Vec2(a), 135.f, 1.5f),
                              makeRoughDielectric(d, a, a, 1.5f, Color(1.f), Color(1.f), m), wo, {}, 300000});
             }
-    c.push_back({"dielectric (smooth) with roughness override (0.15,0.15)", makeDielectric(1.5f), dirDeg(30.f),
+    c.push_back({"dielectric (smooth) with minimum alpha (0.15,0.15)", makeDielectric(1.5f), dirDeg(30.f),
                  Roughness{0.15f, 0.15f}, 300000});
     return c;
 }
@@ -117,18 +125,20 @@ double chi2Level() { return chi2::sidakCorrectedLevel(0.01, totalChi2Tests()); }
 
 void runChi2(const Chi2Case& c, uint64_t seed) {
     const Bxdf& b = *c.bxdf;
-    const Roughness* r = c.rough ? &*c.rough : nullptr;
+    const RegularizationRequest r = minAlphaRequest(c.rough);
     const Vec3 wo = c.wo;
     chi2::SampleFn sampler = [&](Rng& rng, Vec3& w) {
         BsdfSample s;
         const float ul = rng.uniform();
         const Vec2 u = rng.uniform2();
-        if (!b.sample(wo, ul, u, TransportMode::Radiance, s, r)) return false;
+        if (!b.sample(wo, ul, u, BsdfContext(TransportMode::Radiance, r), s)) return false;
         if (s.lobe & kDelta) return false;  // none of these cases has a delta lobe
         w = s.wi;
         return true;
     };
-    chi2::PdfFn pdf = [&](const Vec3& w) { return double(b.eval(wo, w, TransportMode::Radiance, r).pdfFwd.value); };
+    chi2::PdfFn pdf = [&](const Vec3& w) {
+        return double(b.eval(wo, w, BsdfContext(TransportMode::Radiance, r)).pdfFwd.value);
+    };
 
     // Bin layout from an independent pilot run (other seed), so the binning does not depend on
     // the tested samples: one domain per hemisphere, centred on the lobe found there.
@@ -169,7 +179,7 @@ void runChi2Cases(const std::vector<Chi2Case>& cases, uint64_t seedBase) {
 struct Named {
     std::string name;
     BxdfPtr b;
-    std::optional<Roughness> rough;
+    std::optional<Roughness> rough;  // a minimum-alpha request (bsdf.h), if any
     bool indexMatched = false;
 };
 std::vector<Named> nonDeltaBsdfs() {
@@ -185,8 +195,8 @@ std::vector<Named> nonDeltaBsdfs() {
                                  makeRoughDielectric(d, a.x, a.y, eta, Color(0.9f), Color(0.8f), m), {}});
             }
     v.push_back({"twosided(roughconductor)", makeTwoSided(makeRoughConductor(MicrofacetType::Beckmann, 0.2f, 0.2f, kCuEta, kCuK, Color(1.f))), {}});
-    v.push_back({"conductor+override", makeConductor(kCuEta, kCuK, Color(1.f)), Roughness{0.2f, 0.2f}});
-    v.push_back({"dielectric+override", makeDielectric(1.33f), Roughness{0.1f, 0.3f}});
+    v.push_back({"conductor+minAlpha", makeConductor(kCuEta, kCuK, Color(1.f)), Roughness{0.2f, 0.2f}});
+    v.push_back({"dielectric+minAlpha", makeDielectric(1.33f), Roughness{0.1f, 0.3f}});
     return v;
 }
 
@@ -236,7 +246,7 @@ TEST_CASE("diffuse pdf integrates to 1", "[bsdf]") {
 
 TEST_CASE("sample weight equals f cos over pdf and pdfs agree with eval and reverse pdf equals swapped pdf", "[bsdf]") {
     for (const Named& nb : nonDeltaBsdfs()) {
-        const Roughness* r = nb.rough ? &*nb.rough : nullptr;
+        const RegularizationRequest r = minAlphaRequest(nb.rough);
         for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
             Rng rng(42, 7);
             int tested = 0, bad = 0;
@@ -246,10 +256,10 @@ TEST_CASE("sample weight equals f cos over pdf and pdfs agree with eval and reve
                 BsdfSample s;
                 const float ul = rng.uniform();
                 const Vec2 u = rng.uniform2();
-                if (!nb.b->sample(wo, ul, u, mode, s, r)) continue;
+                if (!nb.b->sample(wo, ul, u, BsdfContext(mode, r), s)) continue;
                 if (s.lobe & kDelta) continue;
-                const BsdfEval e = nb.b->eval(wo, s.wi, mode, r);
-                const BsdfEval rev = nb.b->eval(s.wi, wo, mode, r);
+                const BsdfEval e = nb.b->eval(wo, s.wi, BsdfContext(mode, r));
+                const BsdfEval rev = nb.b->eval(s.wi, wo, BsdfContext(mode, r));
                 ++tested;
                 const Color expect = e.f * std::abs(s.wi.z) / e.pdfFwd.value;
                 const bool ok = isFinite(s.weight) && e.pdfFwd.value > 0.f &&
@@ -278,7 +288,7 @@ TEST_CASE("sample weight equals f cos over pdf and pdfs agree with eval and reve
 
 TEST_CASE("reciprocity of reflection and adjoint relation of refraction", "[bsdf]") {
     for (const Named& nb : nonDeltaBsdfs()) {
-        const Roughness* r = nb.rough ? &*nb.rough : nullptr;
+        const RegularizationRequest r = minAlphaRequest(nb.rough);
         Rng rng(5, 11);
         int refl = 0, refr = 0, bad = 0;
         std::string firstBad;
@@ -287,12 +297,12 @@ TEST_CASE("reciprocity of reflection and adjoint relation of refraction", "[bsdf
             BsdfSample s;
             const float ul = rng.uniform();
             const Vec2 u = rng.uniform2();
-            if (!nb.b->sample(wo, ul, u, TransportMode::Radiance, s, r) || (s.lobe & kDelta)) continue;
+            if (!nb.b->sample(wo, ul, u, BsdfContext(TransportMode::Radiance, r), s) || (s.lobe & kDelta)) continue;
             const Vec3 wi = s.wi;
-            const Color fR = nb.b->eval(wo, wi, TransportMode::Radiance, r).f;
-            const Color fRswap = nb.b->eval(wi, wo, TransportMode::Radiance, r).f;
-            const Color fIswap = nb.b->eval(wi, wo, TransportMode::Importance, r).f;
-            const Color fI = nb.b->eval(wo, wi, TransportMode::Importance, r).f;
+            const Color fR = nb.b->eval(wo, wi, BsdfContext(TransportMode::Radiance, r)).f;
+            const Color fRswap = nb.b->eval(wi, wo, BsdfContext(TransportMode::Radiance, r)).f;
+            const Color fIswap = nb.b->eval(wi, wo, BsdfContext(TransportMode::Importance, r)).f;
+            const Color fI = nb.b->eval(wo, wi, BsdfContext(TransportMode::Importance, r)).f;
             bool ok;
             if (wo.z * wi.z > 0.f) {
                 ++refl;
@@ -349,7 +359,7 @@ TEST_CASE("white furnace sampled albedo at most 1", "[bsdf]") {
             }
     const int n = 40000;
     for (const Named& nb : all) {
-        const Roughness* r = nb.rough ? &*nb.rough : nullptr;
+        const RegularizationRequest r = minAlphaRequest(nb.rough);
         for (float t : {0.f, 30.f, 60.f, 80.f, 89.f})
             for (float side : {1.f, -1.f}) {
                 Vec3 wo = dirDeg(t);
@@ -364,7 +374,7 @@ TEST_CASE("white furnace sampled albedo at most 1", "[bsdf]") {
                     BsdfSample s;
                     const float ul = rng.uniform();
                     const Vec2 u = rng.uniform2();
-                    if (!nb.b->sample(wo, ul, u, TransportMode::Importance, s, r)) continue;
+                    if (!nb.b->sample(wo, ul, u, BsdfContext(TransportMode::Importance, r), s)) continue;
                     for (int c = 0; c < 3; ++c) {
                         sum[c] += s.weight[c];
                         sum2[c] += double(s.weight[c]) * s.weight[c];
@@ -490,21 +500,28 @@ TEST_CASE("Fresnel equations", "[bsdf][fresnel]") {
     CHECK(fresnelConductor(1.f, 0.2f, 3.9f) == Approx((0.64f + 3.9f * 3.9f) / (1.44f + 3.9f * 3.9f)).epsilon(1e-4));
 }
 
-TEST_CASE("roughness override and delta threshold", "[bsdf]") {
+TEST_CASE("regularisation request (minimum alpha) and delta threshold", "[bsdf]") {
     const Vec3 wo = dirDeg(30.f), wi = glm::normalize(Vec3(-0.4f, -0.3f, 0.8f));
     const BxdfPtr smooth = makeConductor(kCuEta, kCuK, Color(1.f));
     const BxdfPtr rough = makeRoughConductor(MicrofacetType::GGX, 0.2f, 0.2f, kCuEta, kCuK, Color(1.f));
-    const Roughness ov{0.2f, 0.2f};
+    CHECK(RegularizationRequest{}.empty());
     CHECK(smooth->eval(wo, wi, TransportMode::Radiance).f == Color(0.f));
-    const BsdfEval a = smooth->eval(wo, wi, TransportMode::Radiance, &ov), b = rough->eval(wo, wi, TransportMode::Radiance);
+    const BsdfContext ctx(TransportMode::Radiance, minAlphaRequest(Roughness{0.2f, 0.2f}));
+    CHECK_FALSE(ctx.reg.empty());
+    const BsdfEval a = smooth->eval(wo, wi, ctx), b = rough->eval(wo, wi, TransportMode::Radiance);
     CHECK(a.f.x > 0.f);
     CHECK(close(a.f, b.f, 1e-6f));
     CHECK(a.pdfFwd.value == Approx(b.pdfFwd.value));
-    // Override below kMinAlpha: delta.
-    const Roughness tiny{0.5f * kMinAlpha, 0.5f * kMinAlpha};
-    CHECK(rough->eval(wo, wi, TransportMode::Radiance, &tiny).f == Color(0.f));
+    // A minimum never makes a lobe smoother: below the material's alpha it changes nothing (bitwise),
+    // and below kMinAlpha a smooth lobe stays a delta.
+    const BsdfContext tiny(TransportMode::Radiance, minAlphaRequest(Roughness{0.5f * kMinAlpha, 0.5f * kMinAlpha}));
+    const BsdfEval c = rough->eval(wo, wi, tiny);
+    CHECK(c.f == b.f);
+    CHECK(c.pdfFwd.value == b.pdfFwd.value);
+    CHECK(c.pdfRev.value == b.pdfRev.value);
+    CHECK(smooth->eval(wo, wi, tiny).f == Color(0.f));
     BsdfSample s;
-    REQUIRE(rough->sample(wo, 0.5f, Vec2(0.3f), TransportMode::Radiance, s, &tiny));
+    REQUIRE(smooth->sample(wo, 0.5f, Vec2(0.3f), tiny, s));
     CHECK((s.lobe & kDelta));
     // Factories: alpha below kMinAlpha gives the smooth variant.
     CHECK(makeRoughConductor(MicrofacetType::GGX, 1e-5f, 1e-5f, kCuEta, kCuK, Color(1.f))->isDelta());
@@ -515,6 +532,62 @@ TEST_CASE("roughness override and delta threshold", "[bsdf]") {
     CHECK(makeDiffuse(Color(1.f))->roughness() == 1.f);
     CHECK(makeRoughConductor(MicrofacetType::GGX, 0.1f, 0.4f, kCuEta, kCuK, Color(1.f))->roughness() == Approx(0.2f));
     CHECK(makeRoughConductor(MicrofacetType::GGX, 0.1f, 0.4f, kCuEta, kCuK, Color(1.f))->alpha().alphaV == 0.4f);
+}
+
+// A bound tau is resolved inside each lobe: alpha_hat = alphaForBound of the lobe's own
+// distribution, masking, reflection or transmission and eta (the caller knows none of them).
+TEST_CASE("regularisation request (bound tau) is resolved per lobe", "[bsdf]") {
+    const float tau = 20.f;
+    auto withTau = [&](TransportMode mode) {
+        RegularizationRequest r;
+        r.tau = tau;
+        return BsdfContext(mode, r);
+    };
+    auto withMin = [](TransportMode mode, float a) { return BsdfContext(mode, minAlphaRequest(Roughness{a, a})); };
+    auto same = [](const BsdfEval& x, const BsdfEval& y) {
+        return x.f == y.f && x.pdfFwd.value == y.pdfFwd.value && x.pdfRev.value == y.pdfRev.value;
+    };
+    const Vec3 wo = dirDeg(30.f);
+    const Vec3 wr = glm::normalize(Vec3(-0.4f, -0.3f, 0.8f)), wt = glm::normalize(Vec3(-0.2f, -0.1f, -1.f));
+    for (auto d : kDists)
+        for (auto m : kMasks) {
+            INFO(distName(d) << " " << maskName(m));
+            const float aR = alphaForBound(d, m, tau, false, 1.5f), aT = alphaForBound(d, m, tau, true, 1.5f);
+            REQUIRE(aR > 0.01f);
+            REQUIRE(aT > aR);  // the transmission bound is the larger
+            const BxdfPtr cu = makeRoughConductor(d, 0.01f, 0.01f, kCuEta, kCuK, Color(1.f), m);
+            for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
+                CHECK(same(cu->eval(wo, wr, withTau(mode)), cu->eval(wo, wr, withMin(mode, aR))));
+                const BxdfPtr glass = makeRoughDielectric(d, 0.01f, 0.01f, 1.5f, Color(1.f), Color(1.f), m);
+                CHECK(same(glass->eval(wo, wr, withTau(mode)), glass->eval(wo, wr, withMin(mode, aR))));
+                CHECK(same(glass->eval(wo, wt, withTau(mode)), glass->eval(wo, wt, withMin(mode, aT))));
+                CHECK(glass->eval(wo, wt, withTau(mode)).f.x > 0.f);
+                // sample() takes one alpha for both lobes (the transmission bound's): its pdfs are
+                // those of eval with that minimum.
+                BsdfSample s;
+                for (float uLobe : {0.01f, 0.99f})
+                    if (glass->sample(wo, uLobe, Vec2(0.3f, 0.6f), withTau(mode), s)) {
+                        const BsdfEval e = glass->eval(wo, s.wi, withMin(mode, aT));
+                        CHECK(s.pdfFwd.value == e.pdfFwd.value);
+                        CHECK(s.pdfRev.value == e.pdfRev.value);
+                        CHECK_FALSE((s.lobe & kDelta));
+                    }
+            }
+            // Rougher than alpha_hat already: the bound changes nothing.
+            const BxdfPtr wide = makeRoughConductor(d, 0.9f, 0.9f, kCuEta, kCuK, Color(1.f), m);
+            const TransportMode rad = TransportMode::Radiance;
+            CHECK(same(wide->eval(wo, wr, withTau(rad)), wide->eval(wo, wr, rad)));
+        }
+    // A smooth dielectric under a bound becomes a rough GGX/Smith one, inside a two-sided adapter too.
+    const BxdfPtr smooth = makeTwoSided(makeDielectric(1.5f));
+    const float aT = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, tau, true, 1.5f);
+    const BsdfEval e = smooth->eval(wo, wt, withTau(TransportMode::Radiance));
+    CHECK(e.f.x > 0.f);
+    CHECK(same(e, makeRoughDielectric(MicrofacetType::GGX, aT, aT, 1.5f)->eval(wo, wt, TransportMode::Radiance)));
+    // tau = +inf is no request.
+    RegularizationRequest none;
+    none.tau = kInf;
+    CHECK(none.empty());
 }
 
 TEST_CASE("hard numerics with alpha kMinAlpha at grazing and normal incidence and eta 1", "[bsdf][numerics]") {

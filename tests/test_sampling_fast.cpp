@@ -113,13 +113,13 @@ struct ReferenceSurfaceBsdf {
     BsdfEval eval(const Vec3& woW, const Vec3& wiW, TransportMode mode) const {
         BsdfEval e;
         if (!consistent(woW) || !consistent(wiW)) return e;
-        e = bxdf->eval(frame.toLocal(woW), frame.toLocal(wiW), mode);
+        e = bxdf->eval(frame.toLocal(woW), frame.toLocal(wiW), BsdfContext(mode));
         if (mode == TransportMode::Importance) e.f *= adjointCorrection(woW, wiW);
         return e;
     }
     bool sample(const Vec3& woW, float uLobe, const Vec2& u, TransportMode mode, BsdfSample& s) const {
         if (!consistent(woW)) return false;
-        if (!bxdf->sample(frame.toLocal(woW), uLobe, u, mode, s)) return false;
+        if (!bxdf->sample(frame.toLocal(woW), uLobe, u, BsdfContext(mode), s)) return false;
         s.wi = frame.toWorld(s.wi);
         if (!consistent(s.wi)) return false;
         if (mode == TransportMode::Importance) s.weight *= adjointCorrection(woW, s.wi);

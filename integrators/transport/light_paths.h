@@ -6,13 +6,15 @@
 #pragma once
 #include <vector>
 #include "core/huge_pages.h"
-#include "core/path.h"
+#include "integrators/transport/path.h"
 
 namespace lt {
 
+// A light vertex's densities (names: see the top of path.h), apart from the vertex.
 struct VertexPdfs {
-    float fwd = 0.f, rev = 0.f;  // pdfFwd, pdfRev (area measure)
+    float fromLight = 0.f, fromCamera = 0.f;
     bool delta = false;
+    static VertexPdfs of(const PathVertex& v) { return {v.fromLight.value, v.fromCamera.value, v.delta}; }
 };
 
 class LightPathStore {
@@ -37,7 +39,7 @@ public:
             off += n;
         }
         vertices_.insert(vertices_.end(), c.vertices.begin(), c.vertices.end());
-        for (const PathVertex& v : c.vertices) pdfs_.push_back({v.pdfFwd.value, v.pdfRev.value, v.delta});
+        for (const PathVertex& v : c.vertices) pdfs_.push_back(VertexPdfs::of(v));
     }
 
 private:
@@ -52,15 +54,33 @@ private:
 struct Photon {
     uint32_t vertex = 0;      // index of y[i] in the store; y[0] is at vertex - depth
     Vec3 wo{0.f};             // towards y[i-1]
-    float pdfFwd = 0.f;       // area density of y[i] under the light walk
+    float fromLight = 0.f;    // pL of y[i] (names: see the top of path.h)
     Vec3 ng{0.f};
     uint16_t depth = 0;       // i
     uint8_t lightHittable = 0, prevInfinite = 0;
     Color beta{0.f};
     Vec3 prevP{0.f}, prevNg{0.f};  // y[i-1]; prevNg is zero when y[i-1] is not on a surface
-    float prevPdfFwd = 0.f;        // pL[i-1]
+    float prevFromLight = 0.f;     // pL of y[i-1]
     uint8_t prevDelta = 0;
     double misLight = 0.0;         // lightPrefixSum of y[i-1]
+
+    // The one initialiser: the photon of light vertex y = store[index] (i = y.depth >= 1) and its
+    // predecessor prev, written in place (the grid's scratch array is reused across iterations).
+    void set(uint32_t index, const PathVertex& y, const PathVertex& prev, bool hittable, double prevPrefix) {
+        vertex = index;
+        wo = y.wo;
+        fromLight = y.fromLight.value;
+        ng = y.ng;
+        depth = y.depth;
+        lightHittable = hittable;
+        prevInfinite = prev.infinite;
+        beta = y.beta;
+        prevP = prev.p;
+        prevNg = prev.onSurface() ? prev.ng : Vec3(0.f);
+        prevFromLight = prev.fromLight.value;
+        prevDelta = prev.delta;
+        misLight = prevPrefix;
+    }
 };
 
 // Uniform hash grid over light vertices for range queries (vertex merging). Cells of size 2r;

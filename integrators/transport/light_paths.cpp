@@ -1,4 +1,4 @@
-#include "core/light_paths.h"
+#include "integrators/transport/light_paths.h"
 #include <tbb/parallel_for.h>
 
 namespace lt {
@@ -33,21 +33,7 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
                 cellOf_[k] = UINT32_MAX;
                 continue;
             }
-            const PathVertex& prev = v[k - 1];
-            Photon& ph = items_[k];
-            ph.vertex = uint32_t(k);
-            ph.wo = y.wo;
-            ph.pdfFwd = y.pdfFwd.value;
-            ph.ng = y.ng;
-            ph.depth = y.depth;
-            ph.lightHittable = hittable;
-            ph.prevPdfFwd = prev.pdfFwd.value;
-            ph.prevDelta = prev.delta;
-            ph.misLight = prevPrefix;
-            ph.prevInfinite = prev.infinite;
-            ph.beta = y.beta;
-            ph.prevP = prev.p;
-            ph.prevNg = prev.onSurface() ? prev.ng : Vec3(0.f);
+            items_[k].set(uint32_t(k), y, v[k - 1], hittable, prevPrefix);
             Vec3 g = (y.p - lo_) * invCell_;
             cellOf_[k] = cellHashMod(glm::ivec3(std::floor(g.x), std::floor(g.y), std::floor(g.z)), tableSize);
         }

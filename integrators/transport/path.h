@@ -1,14 +1,25 @@
 // The shared path-vertex store of PT, BPT and VCM: one vertex record, one random walk, one
-// connection routine, one MIS routine.
+// connection routine, one MIS routine; and the seam where a regulariser changes them
+// (regularizer.h: the walks, connect, emitterHit and merge are templates on its policy).
 //
 // Indexing of a full path (used by the MIS routine): x_0 is the light end, x_{n-1} the camera.
 // A technique s takes x_0..x_{s-1} from a light subpath y and x_s..x_{n-1} from a camera
 // subpath z (t = n - s camera vertices; z_0 = x_{n-1} is the camera). PT uses s = 0 (a camera
 // walk hits an emitter) and s = 1 (next-event estimation); BPT every (s, t); VCM adds merges.
 //
-// Every vertex keeps two area densities:
-//   pdfFwd: density of the vertex under the walk that created it (camera walk for z, light walk for y);
-//   pdfRev: density under the walk in the other direction (filled when the next vertex is known).
+// ---- Names of the densities (one name per quantity, in every record) ------------------------
+// Area densities of a path vertex are named by the side whose walk samples the vertex:
+//   fromLight  pL: the density of the vertex when sampled from its neighbour on the light side
+//              (by a light walk; for x_0, the light's own position density);
+//   fromCamera pC: the density when sampled from its neighbour on the camera side (by a camera
+//              walk; 1 for the pinhole).
+// The same two names in every record that holds them: PathVertex (a vertex's own two densities:
+// for a light-subpath vertex fromLight is its walk's, fromCamera is filled when the next vertex
+// is known; the other way round on a camera subpath), VertexPdfs (the compact copy in the light
+// store), Photon (fromLight of y[i], prevFromLight of y[i-1]) and PathPdfs (indexed by the
+// position x_i on the full path: fromLight[i], fromCamera[i]). Solid-angle densities of one
+// scattering event (BsdfEval, BsdfSample, the lights' and the camera's direction pdfs) keep the
+// BSDF's names, pdfFwd (of the sampled direction wi given wo) and pdfRev (of wo given wi).
 //
 // Delta vertices. A vertex x_j continued through a delta lobe (smooth mirror or glass) cannot be
 // a connection or merge vertex, but the techniques on its two sides compare densities that cross
@@ -31,6 +42,7 @@
 #include "bsdf/surface_bsdf.h"
 #include "core/rng.h"
 #include "core/scene.h"
+#include "integrators/transport/regularizer.h"
 
 namespace lt {
 
@@ -39,13 +51,13 @@ inline constexpr int kMaxPathVertices = 66;  // enough for max_depth 64
 enum class VertexKind : uint8_t { Camera, Light, Surface };
 
 // The surface fields (p, ng, shading, bxdf, light, deltaBsdf, roughness) come from SurfacePoint:
-// the walk's Scene::intersect writes them in place. At endpoints ng is zero for point lights,
-// the camera and vertices at infinity.
+// the walk's Scene::intersect writes them in place, setPoint for the vertices that are not surface
+// hits. At endpoints ng is zero for point lights, the camera and vertices at infinity.
 struct PathVertex : SurfacePoint {
     VertexKind kind = VertexKind::Surface;
     Vec3 wo{0.f};        // unit direction towards the previous vertex (zero at an endpoint)
     Color beta{1.f};     // throughput of the subpath up to this vertex (not including its BSDF)
-    AreaPdf pdfFwd, pdfRev;
+    AreaPdf fromLight, fromCamera;  // pL, pC of this vertex (names: see the top of this file)
     uint32_t lobe = kNone;  // lobe sampled at this vertex to continue the walk
     bool delta = false;     // continued through a delta lobe: no connection can use this vertex
     bool infinite = false;  // at infinity (environment hit, directional/constant light endpoint)
@@ -53,6 +65,41 @@ struct PathVertex : SurfacePoint {
     // Fields regularisation reads (JG19, OPSR), besides roughness.
     float segmentLength = 0.f;  // length of the segment arriving at this vertex
     float pathLength = 0.f;     // sum of segment lengths from the endpoint to here
+    SubpathState regState;      // the regulariser's state (regularizer.h (3); None leaves it unset)
+
+    // The one initialiser of a vertex record: every field but the surface point's, written once
+    // with no default construction first (it runs per vertex), then the regulariser's state
+    // (start at an endpoint, extend from prev). `prev` is the vertex the walk came from, `toPrev`
+    // the unit direction to it and `segment` the distance (null, zero and 0 at an endpoint:
+    // depth 0, path length 0); the lobe is set when the walk continues from here.
+    template <class Reg>
+    void init(const Reg& reg, VertexKind k, const PathVertex* prev, const Vec3& toPrev, float segment,
+              const Color& throughput, AreaPdf pL, AreaPdf pC, bool atInfinity = false) {
+        kind = k;
+        wo = toPrev;
+        beta = throughput;
+        fromLight = pL;
+        fromCamera = pC;
+        lobe = kNone;
+        delta = false;
+        infinite = atInfinity;
+        depth = prev ? uint16_t(prev->depth + 1) : uint16_t(0);
+        segmentLength = segment;
+        pathLength = prev ? prev->pathLength + segment : 0.f;
+        if (prev) reg.extend(*this, *prev);
+        else reg.start(*this);
+    }
+    // The surface-point fields of a vertex that is not a surface hit (the camera, a light endpoint,
+    // a point at infinity): no BSDF and no shading frame.
+    void setPoint(const Vec3& pos, const Vec3& normal, const Light* l, float rough) {
+        p = pos;
+        ng = normal;
+        shading = Frame();
+        bxdf = nullptr;
+        light = l;
+        deltaBsdf = false;
+        roughness = rough;
+    }
 
     bool onSurface() const { return kind == VertexKind::Surface || (kind == VertexKind::Light && ng != Vec3(0.f)); }
     bool connectible() const { return !delta && (kind != VertexKind::Surface || (bxdf && !deltaBsdf)); }
@@ -86,29 +133,32 @@ struct WalkStats {
     RayLog* log = nullptr;  // usually null: one predictable branch per ray
 };
 
-// Which vertex densities a walk computes. All: pdfFwd and pdfRev of every vertex, re-evaluated at
-// the vertex positions (BPT, VCM, any MIS over the whole path). EmitterHits: only pdfFwd of
-// vertices on emitters (all the path tracer's MIS reads, see misReadLimit); the others are NaN,
-// so a reader that should not read them produces NaN samples, which are counted, not hidden.
+// Which vertex densities a walk computes. All: both densities of every vertex, re-evaluated at
+// the vertex positions (BPT, VCM, any MIS over the whole path). EmitterHits: only the walk's own
+// density (fromCamera of a camera walk) of vertices on emitters (all the path tracer's MIS reads,
+// see misReadLimit); the others are NaN, so a reader that should not read them produces NaN
+// samples, which are counted, not hidden.
 enum class WalkPdfs { All, EmitterHits };
 
-// Extends a subpath whose vertex path[0] (endpoint) is filled in, starting with `ray` whose
-// direction was sampled with solid-angle density pdfDir and throughput beta. Returns the number of
-// vertices (including path[0]); at most maxVertices. Stops at misses (adding a vertex at infinity
-// for camera walks when the scene has an environment light), absorption (Russian roulette after
-// rrDepth segments) or failed BSDF sampling.
-int randomWalk(const Scene& scene, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng, TransportMode mode,
-               int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All);
-
+// The walks (path_templates.h; `reg` is the regulariser policy, regularizer.h, whose state each
+// vertex carries). A walk fills its endpoint path[0] and extends the subpath by a random walk;
+// it returns the number of vertices (including path[0]), at most maxVertices, and stops at misses
+// (adding a vertex at infinity for camera walks when the scene has an environment light),
+// absorption (Russian roulette after rrDepth segments) or failed BSDF sampling.
+//
 // Starts a light subpath: picks a light by power, samples an emitted ray. Returns the number of
 // vertices (0 when no light can emit). path[0] is the light endpoint.
-int lightWalk(const Scene& scene, Rng& rng, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats);
+template <class Reg>
+int lightWalk(const Scene& scene, const Reg& reg, Rng& rng, int maxVertices, int rrDepth, PathVertex* path,
+              WalkStats& stats);
 
 // The pinhole camera as a path endpoint (z_0 of camera subpaths, the t = 1 end of light tracing).
-PathVertex cameraEndpoint(const Scene& scene);
+template <class Reg>
+PathVertex cameraEndpoint(const Scene& scene, const Reg& reg);
 
 // Starts a camera subpath through raster position `raster`.
-int cameraWalk(const Scene& scene, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
+template <class Reg>
+int cameraWalk(const Scene& scene, const Reg& reg, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
                PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All);
 
 // ---- MIS ----------------------------------------------------------------------------------
@@ -135,8 +185,8 @@ struct MisConfig {
 };
 
 // The pdfs of one full path, gathered from both subpaths (with the values at the technique's own
-// connection vertices recomputed). Regularisation replaces entries here, per technique.
-// Entries 0..n-1 are filled by the gathers (not at construction: the arrays are 600 bytes and
+// connection vertices recomputed), and a regulariser's per-technique factors on them.
+// Entries 0..n-1 are filled by the gathers (not at construction: the arrays are over 1 KB and
 // a connection is made per vertex), except that a limited gather (see misReadLimit) fills
 // only the entries its technique set reads.
 struct PathPdfs {
@@ -152,6 +202,13 @@ struct PathPdfs {
     // relative to p_VC(base + 2) (cameraPrefixSum of the camera vertex x_{base+2}); the upward
     // sum stops there and entries above base + 1 are not read. Checked against the gathered form.
     double aboveBase = -1.0;
+    // Per-technique densities (regularizer.h (2)): when perTechnique, the density of connection
+    // technique k (k light vertices, 0..n) is its product of the entries above times
+    // connectionScale[k], that of the merge at x_i times mergeScale[i] (factors > 0, written by
+    // the regulariser; not read otherwise).
+    bool perTechnique = false;
+    std::array<float, kMaxPathVertices + 1> connectionScale;
+    std::array<float, kMaxPathVertices> mergeScale;
 };
 
 // Power-heuristic weight of connection technique s: p_s^2 / sum_k (n_k p_k)^2 over the techniques
@@ -161,13 +218,14 @@ struct PathPdfs {
 float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 // Weight of the merge technique at x_i.
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg);
-// (Inline, core/path_inline.h: the path tracer's closed form without a call.)
+// (Inline, path_inline.h: the path tracer's closed form without a call.)
 inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set);
 // misWeight with the plain sum over techniques always (misWeight takes a closed form for the path
 // tracer's two techniques); for the tests that check the fast forms against the plain one.
 float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 
-// The highest index of a density (fromLight, fromCamera) the MIS sum of `cfg` can read; it reads
+// The highest index of a density (fromLight, fromCamera) the MIS sum of `cfg` can read (a
+// regulariser with per-technique densities makes every routine read all of them); it reads
 // delta flags up to one index higher (technique k compares the densities at x_{k-1} and needs
 // both neighbours' flags). The path tracer's two techniques (s = 0 and s = 1, no merging) compare
 // only x_0's two densities and read delta[0..1]: its gathers stop there, and its connections
@@ -179,8 +237,12 @@ inline int misReadLimit(const MisConfig& cfg) {
 }
 
 // ---- Connection ----------------------------------------------------------------------------
+// Each routine consults the regulariser `reg` (regularizer.h) with the technique's vertices: the
+// BSDF context at its connection (merge) vertices, and the per-technique densities of the path.
+//
 // A light endpoint for next-event estimation (technique s = 1), sampled from the scene's lights.
-inline bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVertex& out);
+template <class Reg>
+inline bool sampleLightVertex(const Scene& scene, const Reg& reg, const Vec3& refP, Rng& rng, PathVertex& out);
 
 struct Connection {
     Color contribution{0.f};  // unweighted: beta_y * f_y * G * f_z * beta_z, visibility included
@@ -197,13 +259,15 @@ struct Connection {
 // fold away): LightToSurface is next-event estimation, s = 1 with y[0] a light endpoint
 // (sampleLightVertex) and z[t-1] a surface vertex the caller found connectible and not at infinity.
 enum class ConnectEnds { Any, LightToSurface };
-template <ConnectEnds ends = ConnectEnds::Any>
-inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
-                    WalkStats& stats, int readLimit = kMaxPathVertices);
+template <ConnectEnds ends = ConnectEnds::Any, class Reg>
+inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
+                    Connection& c, WalkStats& stats, int readLimit = kMaxPathVertices);
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
-// fills the pdfs.
-Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
+// fills the pdfs (path_templates.h).
+template <class Reg>
+Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs,
+                 int readLimit = kMaxPathVertices);
 
 // Merge (vertex merging) of light vertex y[i] (i >= 1; `photon` holds what is needed of y[i] and
 // y[i-1], `lightPdfs` the densities of y[0..i]) with camera vertex z[t-1] (t >= 2): the
@@ -214,8 +278,10 @@ Color emitterHit(const Scene& scene, const PathVertex* z, int t, PathPdfs& pdfs,
 struct Photon;
 struct VertexPdfs;
 // With cameraSums (cameraSums[m] = cameraPrefixSum of z[m]) the camera side is O(1) too.
-bool merge(const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
-           const double* cameraSums = nullptr);
+// (path_templates.h)
+template <class Reg>
+bool merge(const Reg& reg, const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t,
+           Connection& c, const double* cameraSums = nullptr);
 
 // For light vertex y[m] of a light subpath (pdfs of y[0..m]): the sum over techniques k <= m of
 // (p_k / p_VC(m+1))^2 / (pC[m] / pL[m])^2, i.e. what a merge at y[m+1] needs of the light side
@@ -236,4 +302,5 @@ inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
 
 }  // namespace lt
 
-#include "core/path_inline.h"  // the inline definitions of sampleLightVertex, connect, the gathers
+// The inline definitions of sampleLightVertex, connect, the gathers.
+#include "integrators/transport/path_inline.h"

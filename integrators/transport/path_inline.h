@@ -1,8 +1,8 @@
-// Inline definitions of the per-sample routines of core/path.h that the path tracer calls per
-// camera vertex (NEE: sampleLightVertex, connect, the pdf gathers, the path tracer's MIS weight).
+// Inline definitions of the per-sample routines of path.h that the path tracer calls per camera
+// vertex (NEE: sampleLightVertex, connect, the pdf gathers, the path tracer's MIS weight).
 // In a header so that the compiler specialises them per call site: at the path tracer's call
 // (integrators/pt.cpp) s = 1, readLimit = 0 and the light endpoint are known, and the light
-// sample goes straight into the vertex. Included at the end of core/path.h.
+// sample goes straight into the vertex. Included at the end of path.h.
 #pragma once
 
 namespace lt {
@@ -43,6 +43,21 @@ inline AreaPdf emissionDensity(const Scene& scene, const PathVertex& lv, const V
     return convertDensity(l.pdfLeDir(lv.ng, travelDir), to, travelDir, dist2);
 }
 
+// A connection (or merge) vertex's BSDF towards wi, evaluated with the technique's context
+// (regularizer.h (1)): the value is the regularised one, the densities stay those of the
+// material's own BSDF, which is what the walks sample (a request changes a technique's density in
+// the MIS only through its per-technique factor, regularizer.h (2)). Without a request: one
+// evaluation, as ever.
+inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx) {
+    BsdfEval e = v.bsdf().eval(v.wo, wi, ctx);
+    if (!ctx.reg.empty()) {
+        const BsdfEval plain = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
+        e.pdfFwd = plain.pdfFwd;
+        e.pdfRev = plain.pdfRev;
+    }
+    return e;
+}
+
 // Value a light endpoint sends towards direction w (radiance, intensity or irradiance).
 inline Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
     const Light& l = *a.light;
@@ -57,7 +72,8 @@ inline Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
 
 inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) {
     // The path tracer's closed form here (as misWeight(pdfs, s, cfg) takes it), the rest out of line.
-    if (set == TechniqueSet::PathTracer && s <= 1 && pdfs.belowBase < 0.0 && pdfs.aboveBase < 0.0) {
+    if (set == TechniqueSet::PathTracer && s <= 1 && pdfs.belowBase < 0.0 && pdfs.aboveBase < 0.0 &&
+        !pdfs.perTechnique) {
         const detail::MisFraction f = detail::misSumPathTracer(pdfs, s);
         const double w = f.num / f.den;
         return f.den > 0.0 && w > 0.0 ? float(w) : 0.f;  // (as 1 / sum for sum > 0; 0 for NaN)
@@ -71,22 +87,23 @@ inline void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, 
     const int limit = readLimit < kMaxPathVertices ? readLimit + 1 : readLimit;
     for (int j = std::max(0, s + t - 1 - limit); j < t; ++j) {
         int i = s + t - 1 - j;
-        pdfs.fromCamera[i] = z[j].pdfFwd.value;
-        pdfs.fromLight[i] = z[j].pdfRev.value;
+        pdfs.fromCamera[i] = z[j].fromCamera.value;
+        pdfs.fromLight[i] = z[j].fromLight.value;
         pdfs.delta[i] = z[j].delta;
     }
 }
 
 inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs) {
     for (int i = 0; i < s; ++i) {
-        pdfs.fromLight[i] = y[i].pdfFwd.value;
-        pdfs.fromCamera[i] = y[i].pdfRev.value;
+        pdfs.fromLight[i] = y[i].fromLight.value;
+        pdfs.fromCamera[i] = y[i].fromCamera.value;
         pdfs.delta[i] = y[i].delta;
     }
     pdfs.lightHittable = s > 0 && y[0].light && y[0].light->isHittable();
 }
 
-inline bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, PathVertex& out) {
+template <class Reg>
+inline bool sampleLightVertex(const Scene& scene, const Reg& reg, const Vec3& refP, Rng& rng, PathVertex& out) {
     if (scene.lights().empty()) return false;
     float uSel = rng.uniform();
     Vec2 u = rng.uniform2();
@@ -95,31 +112,17 @@ inline bool sampleLightVertex(const Scene& scene, const Vec3& refP, Rng& rng, Pa
     float sel = scene.lightDistribution().probability(li);
     LightSampleLi ls = l.sampleLi(scene, refP, u);
     if (!(ls.pdfPos.value > 0.f) || !(sel > 0.f) || isBlack(ls.value)) return false;
-    // Every field is written (no default construction first: this is called per camera vertex).
-    out.kind = VertexKind::Light;
-    out.p = ls.p;
-    out.ng = ls.n;  // zero but for area lights
-    out.shading = Frame();
-    out.wo = Vec3(0.f);
-    out.bxdf = nullptr;
-    out.light = &l;
-    out.beta = Color(1.f / (sel * ls.pdfPos.value));
-    out.pdfFwd = AreaPdf(sel * ls.pdfPos.value);
-    out.pdfRev = AreaPdf(0.f);
-    out.lobe = kNone;
-    out.delta = false;
-    out.infinite = l.isInfinite();
-    out.deltaBsdf = false;
-    out.depth = 0;
-    out.roughness = 1.f;
-    out.segmentLength = 0.f;
-    out.pathLength = 0.f;
+    out.setPoint(ls.p, ls.n, &l, 1.f);  // ls.n: zero but for area lights
+    out.init(reg, VertexKind::Light, nullptr, Vec3(0.f), 0.f, Color(1.f / (sel * ls.pdfPos.value)),
+             AreaPdf(sel * ls.pdfPos.value), AreaPdf(0.f), l.isInfinite());
     return true;
 }
 
-template <ConnectEnds ends>
-inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVertex* z, int t, Connection& c,
-                    WalkStats& stats, int readLimit) {
+template <ConnectEnds ends, class Reg>
+inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
+                    Connection& c, WalkStats& stats, int readLimit) {
+    if constexpr (Reg::kPerTechnique) readLimit = kMaxPathVertices;  // every technique's vertices are read
+    const Technique tech{y, s, z, t};
     const PathVertex& a = y[s - 1];  // light side
     const PathVertex& b = z[t - 1];  // camera side
     // The vertex kinds, constant at a next-event estimation site (the tests on them fold away).
@@ -152,7 +155,7 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
         eb.pdfFwd = cam.directionPdf(wBA);
         cosB = glm::dot(cam.forward(), wBA);
     } else {
-        eb = b.bsdf().eval(b.wo, wBA, TransportMode::Radiance);
+        eb = detail::evalAtConnection(b, wBA, reg.context(tech, End::Camera));
         cosB = std::abs(glm::dot(b.shading.n, wBA));
     }
     if (isBlack(eb.f)) return false;
@@ -161,7 +164,7 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
     if (aLight) {
         fa = detail::lightEndpointValue(a, -wBA);
     } else {
-        ea = a.bsdf().eval(a.wo, -wBA, TransportMode::Importance);
+        ea = detail::evalAtConnection(a, -wBA, reg.context(tech, End::Light));
         fa = ea.f;
     }
     if (isBlack(fa)) return false;
@@ -193,6 +196,8 @@ inline bool connect(const Scene& scene, const PathVertex* y, int s, const PathVe
                                 : convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
     if (t >= 2 && s + 1 <= readLimit)
         P.fromLight[s + 1] = convertDensity(eb.pdfRev, z[t - 2], b.wo, sqr(b.segmentLength)).value;
+    P.perTechnique = Reg::kPerTechnique;
+    if constexpr (Reg::kPerTechnique) reg.densities(tech, P);
     c.contribution = contrib;
     return true;
 }

@@ -1,0 +1,142 @@
+#include "integrators/transport/path_templates.h"
+
+namespace lt {
+
+// The regulariser policies the renderer uses (regularizer.h): the templates of path_templates.h
+// compiled once each, here.
+template int lightWalk(const Scene&, const reg::None&, Rng&, int, int, PathVertex*, WalkStats&);
+template PathVertex cameraEndpoint(const Scene&, const reg::None&);
+template int cameraWalk(const Scene&, const reg::None&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,
+                        WalkPdfs);
+template Color emitterHit(const Scene&, const reg::None&, const PathVertex*, int, PathPdfs&, int);
+template bool merge(const reg::None&, const Photon&, const VertexPdfs*, const PathVertex*, int, Connection&,
+                    const double*);
+
+namespace {
+
+using detail::remapDensity;  // (path_inline.h, with the closed form misSumPathTracer)
+
+// sum over all techniques k able to sample the path of (n_k p_k / p_VC(base))^2. `scaled`: each
+// technique's density times its per-technique factor (PathPdfs::perTechnique); unscaled, the
+// factors below are the constant 1 and fold away. (Out of line, both: inlined into misSum, the
+// scaled one made the VCM probe's instruction count +0.01% worse.)
+template <bool scaled>
+[[gnu::noinline]] double sumOverTechniques(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
+    const int n = pdfs.n;
+    // The factors of connection technique k and of the merge at x_k, relative to the base's.
+    const double invBase = scaled ? 1.0 / double(pdfs.connectionScale[base]) : 1.0;
+    auto connectionScale = [&](int k) { return scaled ? double(pdfs.connectionScale[k]) * invBase : 1.0; };
+    auto mergeScale = [&](int k) { return scaled ? double(pdfs.mergeScale[k]) * invBase : 1.0; };
+    auto validVC = [&](int k) {
+        if (!allowsTechnique(cfg.set, k, n - k)) return false;
+        if (k == 0) return pdfs.lightHittable;
+        if (k == n) return false;  // pinhole camera
+        return !pdfs.delta[k - 1] && !pdfs.delta[k];
+    };
+    auto validVM = [&](int i) { return cfg.merging && i >= 1 && i <= n - 2 && !pdfs.delta[i]; };
+    const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
+    // The range of k in which a technique may be valid, to stop the ratio chains early.
+    int kMin = 0, kMax = n;
+    switch (cfg.set) {
+        case TechniqueSet::PathTracer: kMax = 1; break;
+        case TechniqueSet::LightTracer: kMin = kMax = n - 1; break;
+        case TechniqueSet::None: kMin = n; kMax = 0; break;
+        case TechniqueSet::Bidirectional: break;
+    }
+    if (cfg.merging) kMin = std::min(kMin, 1), kMax = std::max(kMax, n - 2);
+    double sum = 0.0;
+    // ratio = p_VC(k) / p_VC(base); p_VC(k) / p_VC(k-1) = pL[k-1] / pC[k-1].
+    double r = 1.0;
+    for (int k = base; k <= std::max(kMax, base); ++k) {
+        if (k > base) r *= remapDensity(pdfs.fromLight[k - 1]) / remapDensity(pdfs.fromCamera[k - 1]);
+        if (k == base + 2 && pdfs.aboveBase >= 0.0) {
+            sum += r * r * pdfs.aboveBase;
+            break;
+        }
+        if (validVC(k)) {
+            const double rk = r * connectionScale(k);
+            sum += rk * rk;
+        }
+        if (k < n && validVM(k)) {
+            double q = r * vm * remapDensity(pdfs.fromLight[k]) * mergeScale(k);
+            sum += q * q;
+        }
+    }
+    if (pdfs.belowBase >= 0.0) return sum + pdfs.belowBase;
+    r = 1.0;
+    for (int k = base - 1; k >= std::min(kMin, base); --k) {
+        r *= remapDensity(pdfs.fromCamera[k]) / remapDensity(pdfs.fromLight[k]);
+        if (validVC(k)) {
+            const double rk = r * connectionScale(k);
+            sum += rk * rk;
+        }
+        if (validVM(k)) {
+            double q = r * vm * remapDensity(pdfs.fromLight[k]) * mergeScale(k);
+            sum += q * q;
+        }
+    }
+    return sum;
+}
+
+// The plain sum, with the per-technique factors when the path has them.
+double misSumGeneral(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
+    return pdfs.perTechnique ? sumOverTechniques<true>(pdfs, base, cfg) : sumOverTechniques<false>(pdfs, base, cfg);
+}
+
+// The plain sum, or the path tracer's closed form (unscaled paths only).
+double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
+    if (pdfs.perTechnique) return sumOverTechniques<true>(pdfs, base, cfg);
+    if (cfg.set == TechniqueSet::PathTracer && !cfg.merging && base <= 1 && pdfs.belowBase < 0.0 &&
+        pdfs.aboveBase < 0.0) {
+        const detail::MisFraction f = detail::misSumPathTracer(pdfs, base);
+        return f.den / f.num;
+    }
+    return sumOverTechniques<false>(pdfs, base, cfg);
+}
+
+}  // namespace
+
+float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
+    double sum = misSumGeneral(pdfs, s, cfg);
+    return sum > 0.0 ? float(1.0 / sum) : 0.f;
+}
+
+double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev) {
+    // Technique k = m (light vertices y[0..m-1], camera side from y[m]) and the merge at y[m].
+    double own = 0.0;
+    if (m == 0) own = lightHittable ? 1.0 : 0.0;
+    else if (!y[m - 1].delta && !y[m].delta) own = 1.0;
+    if (cfg.merging && m >= 1 && !y[m].delta) {
+        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(y[m].fromLight);
+        own += q * q;
+    }
+    if (m == 0) return own;
+    double ratio = remapDensity(y[m - 1].fromCamera) / remapDensity(y[m - 1].fromLight);
+    return own + ratio * ratio * prev;
+}
+
+double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double prev) {
+    // Technique with camera side z[0..m] (t' = m + 1; its light side ends at z[m+1]'s position),
+    // and the merge at z[m] (not at the camera).
+    double own = allowsTechnique(cfg.set, 1, m + 1) && !z[m + 1].delta && !z[m].delta ? 1.0 : 0.0;
+    if (cfg.merging && m >= 1 && !z[m].delta) {
+        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(z[m].fromLight.value);
+        own += q * q;
+    }
+    double ratio = remapDensity(z[m].fromLight.value) / remapDensity(z[m].fromCamera.value);
+    return own + ratio * ratio * prev;
+}
+
+float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
+    double sum = misSum(pdfs, s, cfg);
+    return sum > 0.0 ? float(1.0 / sum) : 0.f;
+}
+
+float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
+    double own = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(pdfs.fromLight[i]);
+    if (pdfs.perTechnique) own *= double(pdfs.mergeScale[i]) / double(pdfs.connectionScale[i]);
+    double sum = misSum(pdfs, i, cfg);
+    return sum > 0.0 ? float(own * own / sum) : 0.f;
+}
+
+}  // namespace lt

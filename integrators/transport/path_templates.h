@@ -1,0 +1,261 @@
+// Definitions of the transport routines that are templates on the regulariser policy
+// (regularizer.h) and compiled out of line: the walks, the camera endpoint, emitter hits and
+// merges (declared in path.h). path.cpp instantiates them for the renderer's policies; code that
+// brings a policy of its own (tests) includes this file.
+#pragma once
+#include "integrators/transport/light_paths.h"
+#include "integrators/transport/path.h"
+
+namespace lt {
+
+namespace detail {
+
+// A walk's own density of a vertex (`fwd`: fromCamera for a camera walk, fromLight for a light
+// walk) and the one of the walk in the other direction (`rev`), as member pointers chosen once
+// per walk. (Measured against a walk templated on the mode: that one made GCC stop inlining the
+// BSDF sampling and the re-evaluation, +0.7% instructions on the VCM probe; these cost +0.09%.)
+using VertexDensity = AreaPdf PathVertex::*;
+
+// MIS densities must be functions of the path's vertices alone: the sampled ray left from an
+// offset origin, so the densities of the segment path[i-1] -> path[i] are re-evaluated with the
+// direction between the two vertex positions (the solid-angle pdfFwd that gives the walk's own
+// density of path[i], and the reverse density of path[i-2]). Keeps the sampled values where the
+// re-evaluation gives zero (grazing directions).
+static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfContext& ctx, VertexDensity rev,
+                        SolidAnglePdf& pdfFwd) {
+    const PathVertex& prev = path[i - 1];
+    const Vec3 d = -path[i].wo;
+    switch (prev.kind) {
+        case VertexKind::Surface:
+            if (!prev.delta && prev.bxdf) {
+                BsdfEval e = prev.bsdf().eval(prev.wo, d, ctx);
+                if (e.pdfFwd.value > 0.f) pdfFwd = e.pdfFwd;
+                if (i >= 2 && e.pdfRev.value > 0.f)
+                    path[i - 2].*rev = convertDensity(e.pdfRev, path[i - 2], prev.wo, sqr(prev.segmentLength));
+            }
+            break;
+        case VertexKind::Camera: {
+            SolidAnglePdf p = scene.camera().directionPdf(d);
+            if (p.value > 0.f) pdfFwd = p;
+            break;
+        }
+        case VertexKind::Light:
+            if (!prev.infinite) {
+                SolidAnglePdf p = prev.light->pdfLeDir(prev.ng, d);
+                if (p.value > 0.f) pdfFwd = p;
+            }
+            break;
+    }
+}
+
+// Extends a subpath whose vertex path[0] (endpoint) is filled in, starting with `ray` whose
+// direction was sampled with solid-angle density pdfDir and throughput beta (see the walks in
+// path.h). `mode` says which walk it is: Radiance for camera subpaths (their own densities are
+// fromCamera), Importance for light subpaths (fromLight).
+template <class Reg>
+int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng,
+               TransportMode mode, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats,
+               WalkPdfs pdfs) {
+    if constexpr (Reg::kPerTechnique) pdfs = WalkPdfs::All;  // every technique's densities are read
+    constexpr float kNotComputed = std::numeric_limits<float>::quiet_NaN();
+    const bool allPdfs = pdfs == WalkPdfs::All;
+    const BsdfContext& ctx = plainContext(mode);  // the walks sample and evaluate the materials' own BSDFs
+    const bool cameraWalk = mode == TransportMode::Radiance;  // a camera walk samples from the camera side
+    const VertexDensity fwd = cameraWalk ? &PathVertex::fromCamera : &PathVertex::fromLight;
+    const VertexDensity rev = cameraWalk ? &PathVertex::fromLight : &PathVertex::fromCamera;
+    int n = 1;
+    SolidAnglePdf pdfFwd = pdfDir;
+    while (n < maxVertices) {
+        PathVertex& prev = path[n - 1];
+        PathVertex& v = path[n];
+        ++stats.rays;
+        if (stats.log) stats.log->addClosest(ray, prev.depth);
+        if (!scene.intersect(ray, v)) {  // fills the SurfacePoint fields of v
+            if (cameraWalk && !scene.infiniteLights().empty()) {
+                // A vertex at infinity (its density stays in solid angle: see convertDensity).
+                const Vec3 far = ray.o + ray.d * (2.f * scene.boundsRadius());
+                v.setPoint(far, Vec3(0.f), scene.infiniteLights().front(), 1.f);
+                v.init(reg, VertexKind::Surface, &prev, -ray.d, kInf, beta, AreaPdf(0.f), AreaPdf(pdfFwd.value), true);
+                ++n;
+            }
+            break;
+        }
+        // The record (the densities are not known yet: the reverse one when the walk continues,
+        // the walk's own one after the re-evaluation below).
+        Vec3 back = prev.p - v.p;
+        float backLen = glm::length(back);
+        const Vec3 wo = backLen > 0.f ? back * (1.f / backLen) : -ray.d;  // the direction the two vertices define
+        const AreaPdf unfilled(allPdfs ? 0.f : kNotComputed);
+        v.init(reg, VertexKind::Surface, &prev, wo, backLen, beta, unfilled, unfilled);
+        if (allPdfs || v.light) {
+            refreshPdfs(scene, path, n, ctx, rev, pdfFwd);
+            v.*fwd = convertDensity(pdfFwd, v, v.wo, sqr(backLen));
+        }
+        ++n;
+        if (n >= maxVertices || !v.bxdf) break;
+
+        BsdfSample bs;
+        float uLobe = rng.uniform();
+        Vec2 u = rng.uniform2();
+        if (!v.bsdf().sample(v.wo, uLobe, u, ctx, bs) || isBlack(bs.weight)) break;
+        v.lobe = bs.lobe;
+        SolidAnglePdf pdfRev = bs.pdfRev;
+        pdfFwd = bs.pdfFwd;
+        if (bs.lobe & kDelta) {
+            // No technique connects here (the MIS routine skips them), but the techniques on
+            // either side of v compare densities that cross it: the generalised densities of
+            // path.h ("Delta vertices"), the lobe's probability times |cos| on the outgoing side
+            // times eta^2 of the crossing, in place of the Dirac delta in projected solid angle.
+            v.delta = true;
+            const float cosWi = std::abs(glm::dot(v.shading.n, bs.wi));
+            const float cosWo = std::abs(glm::dot(v.shading.n, v.wo));
+            pdfFwd = SolidAnglePdf(bs.pdfFwd.value * cosWi * (bs.eta * bs.eta));
+            pdfRev = SolidAnglePdf(bs.pdfRev.value * cosWo);
+        }
+        if (allPdfs) prev.*rev = convertDensity(pdfRev, prev, v.wo, sqr(v.segmentLength));
+        beta *= bs.weight;
+        if (v.depth >= rrDepth) {
+            float q = std::min(0.95f, maxComp(beta));
+            if (!(rng.uniform() < q)) break;
+            beta /= q;
+        }
+        ray = scene.spawnRay(v.p, v.ng, bs.wi);
+    }
+    return n;
+}
+
+// In place (no temporary vertex to build and copy: once per camera sample). beta = We cos /
+// (pdfPos pdfDir) = 1 for a pinhole sampled by raster position; fromCamera = 1: the pinhole
+// position is a delta.
+template <class Reg>
+void setCameraEndpoint(const Scene& scene, const Reg& reg, PathVertex& c) {
+    c.setPoint(scene.camera().position(), Vec3(0.f), nullptr, 0.f);
+    c.init(reg, VertexKind::Camera, nullptr, Vec3(0.f), 0.f, Color(1.f), AreaPdf(0.f), AreaPdf(1.f));
+}
+
+}  // namespace detail
+
+template <class Reg>
+PathVertex cameraEndpoint(const Scene& scene, const Reg& reg) {
+    PathVertex c;
+    detail::setCameraEndpoint(scene, reg, c);
+    return c;
+}
+
+template <class Reg>
+int cameraWalk(const Scene& scene, const Reg& reg, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
+               PathVertex* path, WalkStats& stats, WalkPdfs pdfs) {
+    SolidAnglePdf pdfDir;
+    const Ray ray = scene.camera().generateRay(raster, pdfDir);
+    detail::setCameraEndpoint(scene, reg, path[0]);
+    if (maxVertices <= 1) return 1;
+    return detail::randomWalk(scene, reg, ray, Color(1.f), pdfDir, rng, TransportMode::Radiance, maxVertices, rrDepth,
+                              path, stats, pdfs);
+}
+
+template <class Reg>
+int lightWalk(const Scene& scene, const Reg& reg, Rng& rng, int maxVertices, int rrDepth, PathVertex* path,
+              WalkStats& stats) {
+    if (scene.lights().empty() || maxVertices < 1) return 0;
+    float uSel = rng.uniform();
+    Vec2 uPos = rng.uniform2(), uDir = rng.uniform2();
+    size_t li = scene.lightDistribution().sample(uSel);
+    const Light& l = scene.lights()[li];
+    float sel = scene.lightDistribution().probability(li);
+    LightSampleLe le = l.sampleLe(scene, uPos, uDir);
+    if (!(sel > 0.f) || !(le.pdfPos.value > 0.f) || !(le.pdfDir.value > 0.f) || isBlack(le.value)) return 0;
+    // The endpoint's density is in the measure NEE uses: area for finite lights, the emission
+    // direction's solid angle for lights at infinity (their position lives on the scene's disk).
+    // Its beta leaves out the light's value, which is applied at connections.
+    PathVertex& y0 = path[0];
+    y0.setPoint(le.p, l.type == LightType::Area ? le.n : Vec3(0.f), &l, 1.f);
+    y0.init(reg, VertexKind::Light, nullptr, Vec3(0.f), 0.f, Color(1.f / (sel * le.pdfPos.value)),
+            AreaPdf(sel * (l.isInfinite() ? le.pdfDir.value : le.pdfPos.value)), AreaPdf(0.f), l.isInfinite());
+    if (maxVertices == 1) return 1;
+    float cosL = l.type == LightType::Area ? std::abs(glm::dot(le.n, le.dir)) : 1.f;
+    Color beta = le.value * cosL / (sel * le.pdfPos.value * le.pdfDir.value);
+    Ray ray = l.type == LightType::Area ? scene.spawnRay(le.p, le.n, le.dir) : Ray{le.p, le.dir};
+    int n = detail::randomWalk(scene, reg, ray, beta, le.pdfDir, rng, TransportMode::Importance, maxVertices, rrDepth,
+                               path, stats, WalkPdfs::All);
+    if (y0.infinite && n > 1) {
+        // A ray from the scene's disk: the first hit's density is the disk's, projected.
+        path[1].fromLight = AreaPdf(le.pdfPos.value * std::abs(glm::dot(path[1].ng, le.dir)));
+        path[1].segmentLength = 0.f;
+        path[1].pathLength = 0.f;
+    }
+    return n;
+}
+
+template <class Reg>
+Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit) {
+    if constexpr (Reg::kPerTechnique) readLimit = kMaxPathVertices;  // every technique's vertices are read
+    const PathVertex& v = z[t - 1];
+    if (!v.light || t < 2) return Color(0.f);
+    Color Le = v.light->Le(v.ng, v.wo);
+    if (isBlack(Le)) return Color(0.f);
+    gatherCameraPdfs(z, t, 0, pdfs, readLimit);
+    pdfs.belowBase = pdfs.aboveBase = -1.0;
+    float sel = scene.lightSelectionProb(v.light);
+    pdfs.fromLight[0] = sel * v.light->pdfLi(scene, z[t - 2].p, v.p, v.ng, -v.wo).value;
+    pdfs.delta[0] = false;
+    pdfs.lightHittable = true;
+    // light travels along v.wo, over the segment that arrived at v
+    if (readLimit >= 1)
+        pdfs.fromLight[1] = detail::emissionDensity(scene, v, v.wo, z[t - 2], sqr(v.segmentLength)).value;
+    pdfs.perTechnique = Reg::kPerTechnique;
+    if constexpr (Reg::kPerTechnique) reg.densities(Technique{nullptr, 0, z, t}, pdfs);
+    return v.beta * Le;
+}
+
+template <class Reg>
+bool merge(const Reg& reg, const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
+           const double* cameraSums) {
+    // The camera-side sums are unregularised: bypassed with per-technique densities (and the
+    // light side must be gathered then, lightPdfs given: photon.misLight is unregularised too).
+    if constexpr (Reg::kPerTechnique) cameraSums = nullptr;
+    const int i = ph.depth;
+    const PathVertex& zv = z[t - 1];
+    if (i < 1 || t < 2 || !zv.connectible() || zv.infinite) return false;
+    if (glm::dot(ph.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
+    const Technique tech{nullptr, i + 1, z, t, &ph};
+    BsdfEval ez = detail::evalAtConnection(zv, ph.wo, reg.context(tech, End::Camera));
+    if (isBlack(ez.f)) return false;
+    c.contribution = zv.beta * ez.f * ph.beta;
+    // Full path: x_0..x_i from the light subpath (x_i at the camera vertex), then z[t-2]..z[0].
+    PathPdfs& P = c.pdfs;
+    P.belowBase = -1.0;
+    P.aboveBase = cameraSums ? (t >= 3 ? cameraSums[t - 3] : 0.0) : -1.0;
+    if (lightPdfs) {
+        for (int k = 0; k <= i; ++k) {
+            P.fromLight[k] = lightPdfs[k].fromLight;
+            P.fromCamera[k] = lightPdfs[k].fromCamera;
+            P.delta[k] = lightPdfs[k].delta;
+        }
+    } else {
+        P.fromLight[i - 1] = ph.prevFromLight;
+        P.delta[i - 1] = ph.prevDelta != 0;
+    }
+    P.lightHittable = ph.lightHittable != 0;
+    gatherCameraPdfs(z, t, i, P, cameraSums ? i + 1 : kMaxPathVertices);
+    P.fromLight[i] = ph.fromLight;
+    P.delta[i] = false;
+    // Camera walk continuing from the merge vertex to y[i-1].
+    if (ph.prevInfinite) {
+        P.fromCamera[i - 1] = ez.pdfFwd.value;
+    } else {
+        Vec3 d = ph.prevP - zv.p;
+        float d2 = glm::dot(d, d);
+        float cosPrev = ph.prevNg != Vec3(0.f) ? std::abs(glm::dot(ph.prevNg, d)) / std::sqrt(d2) : 1.f;
+        P.fromCamera[i - 1] = d2 > 0.f ? ez.pdfFwd.value * cosPrev / d2 : 0.f;
+    }
+    P.fromLight[i + 1] = convertDensity(ez.pdfRev, z[t - 2], zv.wo, sqr(zv.segmentLength)).value;
+    if (!lightPdfs) {
+        double ratio = detail::remapDensity(P.fromCamera[i - 1]) / detail::remapDensity(P.fromLight[i - 1]);
+        P.belowBase = ratio * ratio * ph.misLight;
+    }
+    P.perTechnique = Reg::kPerTechnique;
+    if constexpr (Reg::kPerTechnique) reg.densities(tech, P);
+    return true;
+}
+
+}  // namespace lt
