@@ -13,10 +13,6 @@ using namespace lt;
 using namespace lt::test;
 
 namespace {
-const reg::None kNoReg;  // the transport routines without a regulariser
-}  // namespace
-
-namespace {
 
 Image renderWith(const SceneDesc& d, RenderSettings s) {
     Scene scene(d);
@@ -215,20 +211,20 @@ TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation; weights sum to on
     Scene scene(d);
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> y, z;
-    PathVertex cam = cameraEndpoint(scene, kNoReg);
+    PathVertex cam = cameraEndpoint(scene, reg::kNone);
     int checkedPaths = 0, grazingPaths = 0;
     for (bool merging : {false, true}) {
         MisConfig cfg{TechniqueSet::Bidirectional, merging, kPi * 0.01f * 0.01f, 64.f};
         for (uint64_t i = 0; i < 3000; ++i) {
             Rng rng(i, merging);
-            int ny = lightWalk(scene, kNoReg, rng, 5, 100, y.data(), ws);
-            int nz = cameraWalk(scene, kNoReg, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 5, 100, z.data(), ws);
+            int ny = lightWalk(scene, reg::kNone, rng, 5, 100, y.data(), ws);
+            int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 5, 100, z.data(), ws);
             for (int s = 1; s <= ny; ++s)
                 for (int t = 1; t <= nz; ++t) {
                     Connection c;
                     const PathVertex* zz = t == 1 ? &cam : z.data();
                     if (t == 1 && s == 1) continue;
-                    if (!connect(scene, kNoReg, y.data(), s, zz, t, c, ws)) continue;
+                    if (!connect(scene, reg::kNone, y.data(), s, zz, t, c, ws)) continue;
                     std::vector<PathVertex> x(y.begin(), y.begin() + s);
                     for (int j = t - 1; j >= 0; --j) x.push_back(t == 1 ? cam : z[j]);
                     PathPdfs bf = bruteForcePdfs(scene, x);
@@ -331,16 +327,16 @@ TEST_CASE("MIS: the path tracer's limited walk and gather give the full-gather w
     for (uint64_t i = 0; i < 4000; ++i) {
         Vec2 raster(float(i % 8) + 0.5f, float((i / 8) % 8) + 0.5f);
         Rng r1(i, 7), r2(i, 7);
-        int n1 = cameraWalk(scene, kNoReg, raster, r1, 9, 100, zFull.data(), ws, WalkPdfs::All);
-        int n2 = cameraWalk(scene, kNoReg, raster, r2, 9, 100, zFast.data(), ws, WalkPdfs::EmitterHits);
+        int n1 = cameraWalk(scene, reg::kNone, raster, r1, 9, 100, zFull.data(), ws, WalkPdfs::All);
+        int n2 = cameraWalk(scene, reg::kNone, raster, r2, 9, 100, zFast.data(), ws, WalkPdfs::EmitterHits);
         REQUIRE(n1 == n2);  // the same random numbers, the same path
         for (int t = 2; t <= n1; ++t) {
             INFO("path " << i << " t=" << t);
             if (zFull[t - 1].light) {
                 PathPdfs a, b;
                 poison(b);
-                Color ca = emitterHit(scene, kNoReg, zFull.data(), t, a);
-                Color cb = emitterHit(scene, kNoReg, zFast.data(), t, b, limit);
+                Color ca = emitterHit(scene, reg::kNone, zFull.data(), t, a);
+                Color cb = emitterHit(scene, reg::kNone, zFast.data(), t, b, limit);
                 REQUIRE(ca == cb);
                 if (!isBlack(ca)) {
                     CHECK(misWeight(a, 0, cfg) == misWeight(b, 0, cfg));
@@ -349,18 +345,18 @@ TEST_CASE("MIS: the path tracer's limited walk and gather give the full-gather w
             }
             Rng lr(i * 131 + t, 9);
             PathVertex light;
-            if (!sampleLightVertex(scene, kNoReg, zFull[t - 1].p, lr, light)) continue;
+            if (!sampleLightVertex(scene, reg::kNone, zFull[t - 1].p, lr, light)) continue;
             Connection a, b;
             poison(b.pdfs);
-            bool okA = connect(scene, kNoReg, &light, 1, zFull.data(), t, a, ws);
-            bool okB = connect(scene, kNoReg, &light, 1, zFast.data(), t, b, ws, limit);
+            bool okA = connect(scene, reg::kNone, &light, 1, zFull.data(), t, a, ws);
+            bool okB = connect(scene, reg::kNone, &light, 1, zFast.data(), t, b, ws, limit);
             REQUIRE(okA == okB);
             // The path tracer's call: the same routine specialised for its known ends.
             if (!zFast[t - 1].infinite && zFast[t - 1].connectible()) {
                 Connection c;
                 poison(c.pdfs);
                 bool okC =
-                    connect<ConnectEnds::LightToSurface>(scene, kNoReg, &light, 1, zFast.data(), t, c, ws, limit);
+                    connect<ConnectEnds::LightToSurface>(scene, reg::kNone, &light, 1, zFast.data(), t, c, ws, limit);
                 REQUIRE(okC == okB);
                 if (okC) {
                     CHECK(c.contribution == b.contribution);
@@ -435,7 +431,7 @@ LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream) {
     std::array<PathVertex, kMaxPathVertices> y;
     for (uint64_t j = 0; j < uint64_t(count); ++j) {
         Rng rng(j, stream);
-        int ny = lightWalk(scene, kNoReg, rng, 6, 100, y.data(), ws);
+        int ny = lightWalk(scene, reg::kNone, rng, 6, 100, y.data(), ws);
         chunk.counts.push_back(uint32_t(ny));
         chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
     }
@@ -457,7 +453,7 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
     int merges = 0, deepMerges = 0;  // deep: the camera-side sum is used (t >= 3)
     for (uint64_t i = 0; i < 2000; ++i) {
         Rng rng(i, 78);
-        int nz = cameraWalk(scene, kNoReg, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, 100, z.data(), ws);
+        int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, 100, z.data(), ws);
         std::array<double, kMaxPathVertices> cameraSums;
         double prev = 0.0;
         for (int m = 0; m + 1 < nz; ++m) cameraSums[m] = prev = cameraPrefixSum(z.data(), m, cfg, prev);
@@ -466,9 +462,9 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
             grid.query(z[t - 1].p, [&](const Photon& ph) {
                 Connection gathered, fast, fastBoth;
                 const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
-                bool a = merge(kNoReg, ph, pdfs, z.data(), t, gathered);
-                bool b = merge(kNoReg, ph, nullptr, z.data(), t, fast);
-                bool c = merge(kNoReg, ph, nullptr, z.data(), t, fastBoth, cameraSums.data());
+                bool a = merge(reg::kNone, ph, pdfs, z.data(), t, gathered);
+                bool b = merge(reg::kNone, ph, nullptr, z.data(), t, fast);
+                bool c = merge(reg::kNone, ph, nullptr, z.data(), t, fastBoth, cameraSums.data());
                 REQUIRE(a == b);
                 REQUIRE(a == c);
                 if (!a) return;

@@ -29,10 +29,6 @@ using namespace lt;
 using namespace lt::test;
 
 namespace {
-const reg::None kNoReg;  // the transport routines without a regulariser
-}  // namespace
-
-namespace {
 
 using D3 = glm::dvec3;
 
@@ -478,7 +474,7 @@ Tally checkScene(const TestScene& ts, const MisConfig& cfg, int pairs, int maxVe
     Evaluator ev{ts, scene};
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> y, z;
-    PathVertex cam = cameraEndpoint(scene, kNoReg);
+    PathVertex cam = cameraEndpoint(scene, reg::kNone);
     Tally tally;
     auto fullPath = [&](const PathVertex* yy, int s, const PathVertex* zz, int t, FullPath& x) {
         x.p.clear(), x.prim.clear();
@@ -506,13 +502,13 @@ Tally checkScene(const TestScene& ts, const MisConfig& cfg, int pairs, int maxVe
     FullPath x;
     for (int i = 0; i < pairs; ++i) {
         Rng rng(uint64_t(i), 77);
-        const int ny = lightWalk(scene, kNoReg, rng, maxVertices, 1000, y.data(), ws);
-        const int nz = cameraWalk(scene, kNoReg, Vec2(rng.uniform() * res, rng.uniform() * res), rng, maxVertices, 1000,
+        const int ny = lightWalk(scene, reg::kNone, rng, maxVertices, 1000, y.data(), ws);
+        const int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * res, rng.uniform() * res), rng, maxVertices, 1000,
                                   z.data(), ws);
         // s = 0: the camera walk hits the light.
         for (int t = 2; t <= nz; ++t) {
             PathPdfs pdfs;
-            if (!allowsTechnique(cfg.set, 0, t) || isBlack(emitterHit(scene, kNoReg, z.data(), t, pdfs))) continue;
+            if (!allowsTechnique(cfg.set, 0, t) || isBlack(emitterHit(scene, reg::kNone, z.data(), t, pdfs))) continue;
             if (!fullPath(nullptr, 0, z.data(), t, x) || x.prim[0] != ts.lightPrim) continue;
             checkAll(pdfs, 0, x, "emitter hit");
             ++tally.emitterHits;
@@ -524,11 +520,11 @@ Tally checkScene(const TestScene& ts, const MisConfig& cfg, int pairs, int maxVe
                 PathVertex lv;
                 const PathVertex* yy = y.data();
                 if (s == 1 && cfg.set == TechniqueSet::PathTracer) {  // NEE: a fresh light sample
-                    if (!sampleLightVertex(scene, kNoReg, z[t - 1].p, rng, lv)) continue;
+                    if (!sampleLightVertex(scene, reg::kNone, z[t - 1].p, rng, lv)) continue;
                     yy = &lv;
                 }
                 Connection c;
-                if (!connect(scene, kNoReg, yy, s, zz, t, c, ws)) continue;
+                if (!connect(scene, reg::kNone, yy, s, zz, t, c, ws)) continue;
                 if (!fullPath(yy, s, zz, t, x)) continue;
                 checkAll(c.pdfs, s, x, "connection");
             }

@@ -14,8 +14,6 @@ using namespace lt::test;
 
 namespace {
 
-const reg::None kNoReg;
-
 // (3) State: the number of segments from the endpoint, carried along each subpath.
 struct CountingState : reg::None {
     void start(PathVertex& v) const { v.regState.accumulated = 0.f; }
@@ -79,8 +77,8 @@ TEST_CASE("regulariser seam: per-subpath state is carried on every vertex", "[re
         for (bool light : {false, true}) {
             Rng r1(i, 3), r2(i, 3);
             const Vec2 raster(float(i % 8) + 0.5f, float((i / 8) % 8) + 0.5f);
-            const int na = light ? lightWalk(scene, kNoReg, r1, 8, 100, a.data(), ws)
-                                 : cameraWalk(scene, kNoReg, raster, r1, 8, 100, a.data(), ws);
+            const int na = light ? lightWalk(scene, reg::kNone, r1, 8, 100, a.data(), ws)
+                                 : cameraWalk(scene, reg::kNone, raster, r1, 8, 100, a.data(), ws);
             const int nb = light ? lightWalk(scene, counting, r2, 8, 100, b.data(), ws)
                                  : cameraWalk(scene, counting, raster, r2, 8, 100, b.data(), ws);
             REQUIRE(na == nb);  // the state changes nothing else: the same walk
@@ -115,12 +113,12 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
     };
     for (uint64_t i = 0; i < 1500; ++i) {
         Rng rng(i, 5);
-        const int ny = lightWalk(scene, kNoReg, rng, 5, 100, y.data(), ws);
-        const int nz = cameraWalk(scene, kNoReg, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 5, 100, z.data(), ws);
+        const int ny = lightWalk(scene, reg::kNone, rng, 5, 100, y.data(), ws);
+        const int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 5, 100, z.data(), ws);
         for (int s = 2; s <= ny; ++s)
             for (int t = 2; t <= nz; ++t) {
                 Connection plain, regularised;
-                const bool okP = connect(scene, kNoReg, y.data(), s, z.data(), t, plain, ws);
+                const bool okP = connect(scene, reg::kNone, y.data(), s, z.data(), t, plain, ws);
                 const bool okR = connect(scene, rougher, y.data(), s, z.data(), t, regularised, ws);
                 if (!okP || !okR) continue;
                 INFO("path " << i << " s=" << s << " t=" << t);
@@ -150,7 +148,7 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
     LightPathStore::Chunk chunk;
     for (uint64_t j = 0; j < 256; ++j) {
         Rng rng(j, 6);
-        const int ny = lightWalk(scene, kNoReg, rng, 6, 100, y.data(), ws);
+        const int ny = lightWalk(scene, reg::kNone, rng, 6, 100, y.data(), ws);
         chunk.counts.push_back(uint32_t(ny));
         chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
     }
@@ -160,13 +158,13 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
     int merges = 0, mergesChanged = 0;
     for (uint64_t i = 0; i < 500; ++i) {
         Rng rng(i, 7);
-        const int nz = cameraWalk(scene, kNoReg, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, 100, z.data(), ws);
+        const int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, 100, z.data(), ws);
         for (int t = 2; t <= nz; ++t) {
             if (!z[t - 1].connectible() || z[t - 1].infinite) continue;
             grid.query(z[t - 1].p, [&](const Photon& ph) {
                 const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
                 Connection plain, regularised;
-                const bool okP = merge(kNoReg, ph, pdfs, z.data(), t, plain);
+                const bool okP = merge(reg::kNone, ph, pdfs, z.data(), t, plain);
                 const bool okR = merge(rougher, ph, pdfs, z.data(), t, regularised);
                 if (!okP || !okR) return;
                 CHECK(samePdfs(plain.pdfs, regularised.pdfs));
@@ -190,21 +188,21 @@ TEST_CASE("regulariser seam: per-technique densities enter every technique's MIS
     ScaledTechniques unit, scaled;
     unit.trivial = true;
     std::array<PathVertex, kMaxPathVertices> y, z;
-    PathVertex cam = cameraEndpoint(scene, kNoReg);
+    PathVertex cam = cameraEndpoint(scene, reg::kNone);
     int checked = 0, moved = 0;
     for (bool merging : {false, true}) {
         const MisConfig cfg{TechniqueSet::Bidirectional, merging, kPi * 0.01f * 0.01f, 64.f};
         for (uint64_t i = 0; i < 1500; ++i) {
             Rng rng(i, 8 + merging);
-            const int ny = lightWalk(scene, kNoReg, rng, 5, 100, y.data(), ws);
+            const int ny = lightWalk(scene, reg::kNone, rng, 5, 100, y.data(), ws);
             const Vec2 raster(rng.uniform() * 8, rng.uniform() * 8);
-            const int nz = cameraWalk(scene, kNoReg, raster, rng, 5, 100, z.data(), ws);
+            const int nz = cameraWalk(scene, reg::kNone, raster, rng, 5, 100, z.data(), ws);
             for (int s = 1; s <= ny; ++s)
                 for (int t = 1; t <= nz; ++t) {
                     if (s == 1 && t == 1) continue;
                     const PathVertex* zz = t == 1 ? &cam : z.data();
                     Connection plain, ones, withFactors;
-                    if (!connect(scene, kNoReg, y.data(), s, zz, t, plain, ws)) continue;
+                    if (!connect(scene, reg::kNone, y.data(), s, zz, t, plain, ws)) continue;
                     REQUIRE(connect(scene, unit, y.data(), s, zz, t, ones, ws));
                     REQUIRE(connect(scene, scaled, y.data(), s, zz, t, withFactors, ws));
                     INFO("path " << i << " s=" << s << " t=" << t << " merging " << merging);
@@ -253,7 +251,7 @@ TEST_CASE("regulariser seam: per-technique densities bypass the path tracer's li
     for (uint64_t i = 0; i < 2000; ++i) {
         const Vec2 raster(float(i % 8) + 0.5f, float((i / 8) % 8) + 0.5f);
         Rng r1(i, 9), r2(i, 9);
-        const int n1 = cameraWalk(scene, kNoReg, raster, r1, 8, 100, zFull.data(), ws, WalkPdfs::All);
+        const int n1 = cameraWalk(scene, reg::kNone, raster, r1, 8, 100, zFull.data(), ws, WalkPdfs::All);
         // The path tracer's call (densities at emitter hits only), with a per-technique policy.
         const int n2 = cameraWalk(scene, unit, raster, r2, 8, 100, zFast.data(), ws, WalkPdfs::EmitterHits);
         REQUIRE(n1 == n2);
@@ -266,7 +264,7 @@ TEST_CASE("regulariser seam: per-technique densities bypass the path tracer's li
             if (zFull[t - 1].light) {
                 PathPdfs a, b;
                 poison(b);
-                const Color ca = emitterHit(scene, kNoReg, zFull.data(), t, a);
+                const Color ca = emitterHit(scene, reg::kNone, zFull.data(), t, a);
                 const Color cb = emitterHit(scene, unit, zFast.data(), t, b, limit);  // limit ignored
                 REQUIRE(ca == cb);
                 if (!isBlack(ca)) {
@@ -281,7 +279,7 @@ TEST_CASE("regulariser seam: per-technique densities bypass the path tracer's li
             if (!sampleLightVertex(scene, unit, zFull[t - 1].p, lr, light)) continue;
             Connection a, b;
             poison(b.pdfs);
-            const bool okA = connect(scene, kNoReg, &light, 1, zFull.data(), t, a, ws);
+            const bool okA = connect(scene, reg::kNone, &light, 1, zFull.data(), t, a, ws);
             const bool okB =
                 connect<ConnectEnds::LightToSurface>(scene, unit, &light, 1, zFast.data(), t, b, ws, limit);
             REQUIRE(okA == okB);

@@ -82,6 +82,8 @@ struct None {
     void start(PathVertex&) const {}
     void extend(PathVertex&, const PathVertex&) const {}
 };
+// The unregularised policy as a value, for callers that pass it directly (the tests).
+inline constexpr None kNone{};
 
 }  // namespace reg
 
