@@ -149,6 +149,10 @@ public:
     virtual Roughness alpha() const { return {}; }
     virtual std::string name() const = 0;
     bool isDelta() const { return (flags() & (kDiffuse | kGlossy)) == 0; }
+    // Whether the BSDF is still only delta lobes when evaluated with ctx's request (a smooth
+    // conductor or dielectric stays a delta while the request's resolved alpha is below kMinAlpha;
+    // such a vertex cannot be a regularised connection end: its eval is 0 for every pair).
+    virtual bool deltaUnder(const BsdfContext&) const { return isDelta(); }
     // Non-null when this is the plain diffuse model: SurfaceBsdf then evaluates and samples it
     // inline (no virtual call, no spills around one), as pbrt-v4 dispatches on a type tag. The
     // diffuse surface is the most common of all; every other model goes through the virtual calls.

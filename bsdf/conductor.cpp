@@ -53,6 +53,7 @@ public:
     }
 
     uint32_t flags() const override { return rough_ ? (kReflection | kGlossy) : (kReflection | kDelta); }
+    bool deltaUnder(const BsdfContext& ctx) const override { return lobe_.resolve(ctx.reg, false, 1.f).delta; }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }

@@ -113,6 +113,10 @@ public:
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }
+    // The transmission bound gives the larger alpha_hat (see sample): rough there first.
+    bool deltaUnder(const BsdfContext& ctx) const override {
+        return eta_ == 1.f || lobe_.resolve(ctx.reg, true, eta_).delta;
+    }
 
 private:
     // The rough lobes with the alphas of one call (the material's, or the regularised ones), for

@@ -46,6 +46,7 @@ public:
     }
 
     uint32_t flags() const override { return inner_->flags(); }
+    bool deltaUnder(const BsdfContext& ctx) const override { return inner_->deltaUnder(ctx); }
     float roughness() const override { return inner_->roughness(); }
     Roughness alpha() const override { return inner_->alpha(); }
     std::string name() const override { return "twosided(" + inner_->name() + ")"; }

@@ -13,7 +13,8 @@ namespace lt {
 // Splats collected by one fixed chunk of work; merged into the film in chunk order, so the
 // result does not depend on which thread ran which chunk.
 struct SplatBuffer {
-    struct Splat { uint32_t pixel; Color value; uint16_t strategyS; };  // strategyS: light vertices (debug images)
+    // strategyS: light vertices, regularised: the technique evaluated a regularised BSDF (debug images)
+    struct Splat { uint32_t pixel; Color value; uint16_t strategyS; bool regularised; };
     std::vector<Splat> splats;
     void clear() { splats.clear(); }
 };
@@ -35,7 +36,7 @@ public:
     void addSampleCount(int x, int y, uint32_t n) { count_[size_t(y) * width_ + x] += n; }
 
     // Thread-safe: records a light-tracing splat into the caller's buffer (rejects invalid values).
-    bool splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t strategyS = 0);
+    bool splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t strategyS = 0, bool regularised = false);
     // Merge buffers (call in a fixed order). Splats are summed and divided by the number of
     // splat passes given to develop().
     void mergeSplats(const SplatBuffer& buf);

@@ -119,6 +119,21 @@ private:
         if (I.rrDepth < 1) p.failAt("rr_depth", fmt::format("must be >= 1 (got {})", I.rrDepth));
         I.hideEmitters = p.getBool("hide_emitters", false);
         if (!known) return;
+        // Regularisation (integrators/transport/regularizer.h).
+        I.regularizer = xml::lower(p.getString("regularizer", "none"));
+        if (!isIn({"none", "jg19"}, I.regularizer))
+            p.failAt("regularizer", fmt::format("unknown regulariser '{}' (supported: none, jg19)", I.regularizer));
+        if (p.has("reg_tau")) {
+            I.regTau = p.getFloat("reg_tau", -1.f);
+            if (!(I.regTau > 1.0 / (2.0 * 3.14159265358979)))
+                p.failAt("reg_tau", fmt::format("must exceed 1/(2 pi) = 0.159 (got {})", I.regTau));
+        }
+        I.regSchedule = xml::lower(p.getString("reg_schedule", "consistent"));
+        if (!isIn({"consistent", "fixed"}, I.regSchedule))
+            p.failAt("reg_schedule", fmt::format("unknown schedule '{}' (supported: consistent, fixed)", I.regSchedule));
+        I.regMis = xml::lower(p.getString("reg_mis", "regularised"));
+        if (!isIn({"regularised", "sampling"}, I.regMis))
+            p.failAt("reg_mis", fmt::format("unknown MIS densities '{}' (supported: regularised, sampling)", I.regMis));
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.
         if (p.has("initial_radius") && p.has("radius")) p.failAt("radius", "give either radius or initial_radius");

@@ -60,6 +60,12 @@ struct IntegratorDesc {
     bool hideEmitters = false;
     float radius = -1.f;        // VCM/PPM initial radius (<=0: derived from scene size)
     float radiusAlpha = 0.75f;
+    // Path-space regularisation (integrator parameters regularizer, reg_tau, reg_schedule, reg_mis;
+    // the render CLI's --reg, --reg-tau, --reg-schedule, --reg-mis override them).
+    std::string regularizer = "none";    // none | jg19
+    double regTau = -1.0;                // <= 0: the integrator's default
+    std::string regSchedule = "consistent";
+    std::string regMis = "regularised";
 };
 
 struct SceneDesc {

@@ -4,6 +4,7 @@
 #include <memory>
 #include <string>
 #include "core/film.h"
+#include "integrators/transport/jg19.h"
 #include "integrators/transport/path.h"
 #include "core/scene.h"
 
@@ -31,7 +32,19 @@ struct RenderSettings {
     int onlyS = -1, onlyT = -1;
     // Test hook: scales the MIS weights of connections with s >= 2 (1 = correct).
     float testMisScale = 1.f;
+    // Path-space regularisation (integrators/transport/regularizer.h): none | jg19.
+    std::string regularizer = "none";
+    double regTau = -1.0;                    // JG19 tau_0; <= 0: the integrator's default (regTauDefault)
+    std::string regSchedule = "consistent";  // consistent (JG19 Eq. 16) | fixed
+    std::string regMis = "regularised";      // regularised (JG19 Eq. 13) | sampling (naive weights)
 };
+
+// The bound tau of a regulariser's current iteration, for the statistics (0: none).
+inline double regularisationTauOf(const reg::None&) { return 0.0; }
+inline double regularisationTauOf(const reg::Jg19& r) { return r.tau(); }
+
+// JG19's default tau_0 (Sec. 6): 30 for PT and BPT (and LT), 1000 for VCM (and PPM).
+double regTauDefault(const std::string& integrator);
 
 struct RenderStats {
     uint64_t spp = 0;
@@ -39,6 +52,10 @@ struct RenderStats {
     uint64_t rays = 0;
     uint64_t invalidSamples = 0;
     double seconds = 0.0;
+    // Regularisation: the contributions made (weighted, non-zero), those whose own technique
+    // evaluated a regularised BSDF, and tau of the last iteration (0: no regulariser).
+    uint64_t contributions = 0, regularisedContributions = 0;
+    double tau = 0.0;
 };
 
 // One iteration/pass of an integrator over the whole image. A pass with index `pass` draws the
@@ -51,6 +68,8 @@ public:
     virtual void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) {}
     // Called once after the last pass (e.g. to write per-strategy images).
     virtual void finish(const Scene& scene, uint64_t passes) {}
+    // The regulariser's bound tau of the current pass (0: none).
+    virtual double regularisationTau() const { return 0.0; }
     // Renders sample index `pass` of every pixel in rows [y0, y1) x cols [x0, x1).
     virtual void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
                             WalkStats& stats) const = 0;

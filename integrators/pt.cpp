@@ -19,6 +19,8 @@ public:
         else throw std::invalid_argument("unknown PT strategy '" + s.ptStrategy + "' (supported: mis, nee, bsdf)");
     }
     std::string name() const override { return "pt"; }
+    void beginPass(const Scene&, Film&, uint32_t pass, WalkStats&) override { reg_.beginIteration(uint64_t(pass) + 1); }
+    double regularisationTau() const override { return regularisationTauOf(reg_); }
 
     void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
                     WalkStats& stats) const override {
@@ -55,22 +57,26 @@ public:
         for (int t = 2; t <= nz; ++t) {
             const PathVertex& v = z[t - 1];
             // s = 0: the walk hit an emitter (t - 1 segments).
-            bool neeImpossible = t == 2 || !z[t - 2].connectible();
+            bool neeImpossible = t == 2 || !reg_.connectible(z[t - 2]);
             if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
                 Color c = emitterHit(scene, reg_, z, t, pdfs, readLimit);
-                if (!isBlack(c))
+                if (!isBlack(c)) {
                     L += c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
+                    if constexpr (Reg::kPerTechnique) ++stats.contributions;
+                }
             }
             // s = 1: next-event estimation (t segments).
-            if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && v.connectible()) {
+            if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && reg_.connectible(v)) {
                 // Locals no call sees (the chain is inline): their default initialisation and the
                 // fields connect does not read are dropped by the compiler, the rest stay in registers.
                 PathVertex y;
                 Connection conn;
                 if (sampleLightVertex(scene, reg_, v.p, rng, y) &&
-                    connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit))
+                    connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit)) {
                     L += conn.contribution *
                          (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
+                    if constexpr (Reg::kPerTechnique) ++stats.contributions, stats.regularised += conn.pdfs.regularised;
+                }
             }
         }
         return L;
@@ -87,6 +93,9 @@ private:
 
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::None& reg) {
     return std::make_unique<PathTracer<reg::None>>(s, reg);
+}
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Jg19& reg) {
+    return std::make_unique<PathTracer<reg::Jg19>>(s, reg);
 }
 
 }  // namespace lt

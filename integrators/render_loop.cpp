@@ -10,6 +10,12 @@ namespace lt {
 
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::None& reg);
 std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::None& reg);
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Jg19& reg);
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Jg19& reg);
+
+double regTauDefault(const std::string& integrator) {
+    return integrator == "vcm" || integrator == "ppm" ? 1000.0 : 30.0;
+}
 
 std::string supportedIntegrators() { return "pt, bpt, vcm, lt, ppm"; }
 
@@ -21,15 +27,32 @@ std::string integratorForSceneType(const std::string& t) {
     return t;
 }
 
-// The one place that chooses the regulariser (regularizer.h). Today only reg::None exists; a
-// regulariser adds its settings to RenderSettings, its policy type here, and an instantiation of
-// the integrators and of path_templates.h (integrators/transport/path.cpp) for it.
-std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
-    const reg::None reg;
+// The one place that chooses the regulariser (regularizer.h): its policy type here, and an
+// instantiation of the integrators and of path_templates.h (integrators/transport/path.cpp).
+namespace {
+template <class Reg>
+std::unique_ptr<Integrator> makeWith(const RenderSettings& s, const Reg& reg) {
     if (s.integrator == "pt") return makePathTracer(s, reg);
     if (s.integrator == "bpt" || s.integrator == "vcm" || s.integrator == "lt" || s.integrator == "ppm")
         return makeBidirectional(s, reg);
     throw std::invalid_argument("unknown integrator '" + s.integrator + "' (supported: " + supportedIntegrators() + ")");
+}
+}  // namespace
+
+std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
+    if (s.regularizer == "none") return makeWith(s, reg::None{});
+    if (s.regularizer == "jg19") {
+        reg::Jg19Settings j;
+        j.tau0 = s.regTau > 0.0 ? s.regTau : regTauDefault(s.integrator);
+        if (s.regSchedule == "consistent") j.schedule = reg::Schedule::Consistent;
+        else if (s.regSchedule == "fixed") j.schedule = reg::Schedule::Fixed;
+        else throw std::invalid_argument("unknown regularisation schedule '" + s.regSchedule + "' (supported: consistent, fixed)");
+        if (s.regMis == "regularised") j.mis = reg::MisDensities::Regularised;
+        else if (s.regMis == "sampling") j.mis = reg::MisDensities::Sampling;
+        else throw std::invalid_argument("unknown regularisation MIS '" + s.regMis + "' (supported: regularised, sampling)");
+        return makeWith(s, reg::Jg19(j));
+    }
+    throw std::invalid_argument("unknown regulariser '" + s.regularizer + "' (supported: none, jg19)");
 }
 
 Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,
@@ -45,7 +68,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     auto start = Clock::now();
     double excluded = 0.0;  // seconds spent in the progress callback
     auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count() - excluded; };
-    std::atomic<uint64_t> rays{0};
+    std::atomic<uint64_t> rays{0}, contributions{0}, regularised{0};
     uint64_t passes = 0;
     const uint64_t totalPasses = settings.spp > 0 ? uint64_t(settings.spp) : 0;
     constexpr int kTile = 16;
@@ -57,6 +80,8 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
             WalkStats ws;
             integrator->beginPass(scene, film, pass, ws);
             rays += ws.rays;
+            contributions += ws.contributions;
+            regularised += ws.regularised;
         }
         tbb::parallel_for(tbb::blocked_range2d<int>(0, cam.height(), kTile, 0, cam.width(), kTile),
                           [&](const tbb::blocked_range2d<int>& r) {
@@ -64,6 +89,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
                               integrator->renderTile(scene, film, pass, r.cols().begin(), r.rows().begin(),
                                                      r.cols().end(), r.rows().end(), ws);
                               rays += ws.rays;
+                              if (ws.contributions) contributions += ws.contributions, regularised += ws.regularised;
                           });
         ++passes;
         if (progress) {
@@ -80,6 +106,9 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     stats.samples = passes * uint64_t(cam.width()) * cam.height();
     stats.rays = rays.load();
     stats.invalidSamples = film.invalidSamples();
+    stats.contributions = contributions.load();
+    stats.regularisedContributions = regularised.load();
+    stats.tau = integrator->regularisationTau();
     return film.develop(passes);
 }
 

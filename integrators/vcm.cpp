@@ -28,12 +28,16 @@ public:
         conn_.resize(size_t(maxLen + 2) * (maxLen + 2));
         merge_.resize(size_t(maxLen + 2));
     }
-    void add(bool isMerge, int s, int t, uint32_t pixel, const Color& c) {
+    void add(bool isMerge, int s, int t, uint32_t pixel, const Color& c, bool regularised) {
         if (s > maxLen_ + 1 || t > maxLen_ + 1) return;
         auto& img = isMerge ? merge_[s] : conn_[size_t(s) * (maxLen_ + 2) + t];
         std::lock_guard<std::mutex> lock(m_);  // debugging aid: simplicity over speed
         if (img.empty()) img.assign(size_t(w_) * h_, glm::dvec3(0.0));
         img[pixel] += glm::dvec3(c);
+        if (regularised) {  // the part of the image whose own technique was regularised
+            if (regularised_.empty()) regularised_.assign(size_t(w_) * h_, glm::dvec3(0.0));
+            regularised_[pixel] += glm::dvec3(c);
+        }
     }
     void write(const std::string& dir, uint64_t passes) const {
         std::filesystem::create_directories(dir);
@@ -47,12 +51,14 @@ public:
             for (int t = 0; t <= maxLen_ + 1; ++t) save(conn_[size_t(s) * (maxLen_ + 2) + t], fmt::format("s{}_t{}.exr", s, t));
             save(merge_[s], fmt::format("merge_s{}.exr", s));
         }
+        save(regularised_, "regularised.exr");
     }
 
 private:
     int w_, h_, maxLen_;
     std::mutex m_;
     std::vector<std::vector<glm::dvec3>> conn_, merge_;
+    std::vector<glm::dvec3> regularised_;
 };
 
 // A class template on the regulariser policy (integrators/transport/regularizer.h), which the loops
@@ -73,8 +79,10 @@ public:
         maxDepth_ = s.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(s.maxDepth, kMaxPathVertices - 2);
     }
     std::string name() const override { return settings_.integrator; }
+    double regularisationTau() const override { return regularisationTauOf(reg_); }
 
     void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) override {
+        reg_.beginIteration(uint64_t(pass) + 1);
         const Camera& cam = scene.camera();
         const size_t nPaths = size_t(cam.width()) * cam.height();
         if (pass == 0 && !settings_.strategyImages.empty())
@@ -115,7 +123,8 @@ public:
             store_.append(chunks_[c]);
             film.mergeSplats(splats_[c]);
             if (strategies_)
-                for (const auto& sp : splats_[c].splats) strategies_->add(false, sp.strategyS, 1, sp.pixel, sp.value);
+                for (const auto& sp : splats_[c].splats)
+                    strategies_->add(false, sp.strategyS, 1, sp.pixel, sp.value, sp.regularised);
         }
         stats.rays += rays.load();
 
@@ -150,7 +159,8 @@ private:
             Connection c;
             if (!connect(scene, reg_, y, s, &camera, 1, c, ws)) continue;
             float w = connectionWeight(c.pdfs, s, 1);
-            film.splat(splat, c.raster, c.contribution * w, uint16_t(s));
+            film.splat(splat, c.raster, c.contribution * w, uint16_t(s), c.pdfs.regularised);
+            if constexpr (Reg::kPerTechnique) ++ws.contributions, ws.regularised += c.pdfs.regularised;
         }
     }
 
@@ -181,9 +191,14 @@ private:
             // s = 0: emitter hit.
             if (v.light && !(settings_.hideEmitters && t == 2) && (useConnections_ || (ppm_ && allDelta))) {
                 Color c = emitterHit(scene, reg_, z, t, pdfs);
-                if (!isBlack(c)) record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel);
+                if (!isBlack(c))
+                    record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel, false, stats);
             }
-            if (v.infinite || !v.connectible()) {
+            // Connections at the vertices the regulariser makes connectible (the same as merges
+            // without one: not at infinity, not delta); merges at non-delta vertices only.
+            const bool canMerge = !v.infinite && v.connectible();
+            const bool canConnect = canMerge || (!v.infinite && reg_.connectible(v));
+            if (!canConnect) {
                 allDelta = allDelta && v.delta;
                 continue;
             }
@@ -193,21 +208,31 @@ private:
                 Connection c;
                 if (t <= maxDepth_ && sampleLightVertex(scene, reg_, v.p, rng, lv) &&
                     connect(scene, reg_, &lv, 1, z, t, c, stats))
-                    record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel);
+                    record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel, c.pdfs.regularised,
+                           stats);
                 // s >= 2: the pixel's own light subpath.
                 for (int s = 2; s <= ny && s + t - 1 <= maxDepth_; ++s)
                     if (connect(scene, reg_, y, s, z, t, c, stats))
-                        record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel);
+                        record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel,
+                               c.pdfs.regularised, stats);
             }
+            if (!canMerge) continue;  // (a delta vertex: allDelta is false from here on)
             if (useMerging_) {
                 Connection c;
                 grid_.scan(v.p, cells[t - 1], [&](const Photon& ph) {
                     int i = ph.depth;
                     if (i + t - 1 > maxDepth_) return;
-                    // the fast form (tested against the gathered)
-                    if (!merge(reg_, ph, nullptr, z, t, c, cameraSums.data())) return;
+                    // The fast form (tested against the gathered); a regulariser with per-technique
+                    // densities gets the light subpath for the paths it regularises.
+                    const PathVertex* ly = nullptr;
+                    const VertexPdfs* lp = nullptr;
+                    if constexpr (Reg::kPerTechnique) {
+                        ly = store_.vertices().data() + (ph.vertex - ph.depth);
+                        lp = store_.pdfs().data() + (ph.vertex - ph.depth);
+                    }
+                    if (!merge(reg_, ph, ly, lp, z, t, c, cameraSums.data())) return;
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
-                    record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel);
+                    record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel, c.pdfs.regularised, stats);
                 });
                 if (ppm_) break;  // PPM merges at the first non-delta camera vertex only
             }
@@ -223,9 +248,12 @@ private:
         return s >= 2 ? w * settings_.testMisScale : w;
     }
 
-    void record(Color& L, const Color& c, bool isMerge, int s, int t, uint32_t pixel) const {
+    void record(Color& L, const Color& c, bool isMerge, int s, int t, uint32_t pixel, bool regularised,
+                WalkStats& stats) const {
         L += c;
-        if (strategies_) strategies_->add(isMerge, s, t, pixel, c);
+        if (strategies_) strategies_->add(isMerge, s, t, pixel, c, regularised);
+        if constexpr (Reg::kPerTechnique)
+            if (!isBlack(c)) ++stats.contributions, stats.regularised += regularised;
     }
 
     RenderSettings settings_;
@@ -245,6 +273,9 @@ private:
 
 std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::None& reg) {
     return std::make_unique<Bidirectional<reg::None>>(s, reg);
+}
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Jg19& reg) {
+    return std::make_unique<Bidirectional<reg::Jg19>>(s, reg);
 }
 
 }  // namespace lt

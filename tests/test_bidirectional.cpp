@@ -462,9 +462,9 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
             grid.query(z[t - 1].p, [&](const Photon& ph) {
                 Connection gathered, fast, fastBoth;
                 const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
-                bool a = merge(reg::kNone, ph, pdfs, z.data(), t, gathered);
-                bool b = merge(reg::kNone, ph, nullptr, z.data(), t, fast);
-                bool c = merge(reg::kNone, ph, nullptr, z.data(), t, fastBoth, cameraSums.data());
+                bool a = merge(reg::kNone, ph, nullptr, pdfs, z.data(), t, gathered);
+                bool b = merge(reg::kNone, ph, nullptr, nullptr, z.data(), t, fast);
+                bool c = merge(reg::kNone, ph, nullptr, nullptr, z.data(), t, fastBoth, cameraSums.data());
                 REQUIRE(a == b);
                 REQUIRE(a == c);
                 if (!a) return;

@@ -35,6 +35,7 @@ struct RougherAtConnections : reg::None {
 // vertices), not on which technique is being weighted; `trivial` makes them all 1.
 struct ScaledTechniques : reg::None {
     static constexpr bool kPerTechnique = true;
+    bool perTechnique(const Technique&) const { return true; }
     bool trivial = false;
     void densities(const Technique&, PathPdfs& p) const {
         for (int k = 0; k <= p.n; ++k)
@@ -66,8 +67,8 @@ bool samePdfs(const PathPdfs& a, const PathPdfs& b) {
 }  // namespace
 
 TEST_CASE("regulariser seam: per-subpath state is carried on every vertex", "[regularizer]") {
-    // The state fits the vertex record's tail padding.
-    static_assert(sizeof(PathVertex) == 144);
+    // The state: two floats at the end of the record (152 bytes).
+    static_assert(sizeof(PathVertex) == 152);
     Scene scene(testScene());
     WalkStats ws;
     const CountingState counting;
@@ -164,8 +165,8 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
             grid.query(z[t - 1].p, [&](const Photon& ph) {
                 const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
                 Connection plain, regularised;
-                const bool okP = merge(reg::kNone, ph, pdfs, z.data(), t, plain);
-                const bool okR = merge(rougher, ph, pdfs, z.data(), t, regularised);
+                const bool okP = merge(reg::kNone, ph, nullptr, pdfs, z.data(), t, plain);
+                const bool okR = merge(rougher, ph, nullptr, pdfs, z.data(), t, regularised);
                 if (!okP || !okR) return;
                 CHECK(samePdfs(plain.pdfs, regularised.pdfs));
                 const Technique tech{nullptr, ph.depth + 1, z.data(), t, &ph};

@@ -54,6 +54,20 @@ int main(int argc, char** argv) {
                    "BPT/VCM/LT/PPM: write each technique's weighted contribution (s_t.exr, merge_s.exr) to this directory");
     app.add_option("--pt-strategy", ptStrategy, "PT techniques: mis (default), nee, bsdf")
         ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
+    std::string regularizer, regSchedule, regMis;
+    double regTau = -1.0;
+    app.add_option("--reg", regularizer, "Path-space regulariser: none (default), jg19 (overrides the scene's)")
+        ->check(CLI::IsMember({"none", "jg19"}));
+    app.add_option("--reg-tau", regTau,
+                   "JG19 bound tau_0 on the BSDF at connections and merges (default 30 for pt/bpt/lt, 1000 for "
+                   "vcm/ppm; JG19 Sec. 6); must exceed 1/(2 pi)")
+        ->check(CLI::Range(1.0 / (2.0 * 3.14159265358979) + 1e-9, 1e300));
+    app.add_option("--reg-schedule", regSchedule,
+                   "JG19 tau over iterations: consistent (default; Eq. 16, tau_N grows, the bias vanishes) or fixed")
+        ->check(CLI::IsMember({"consistent", "fixed"}));
+    app.add_option("--reg-mis", regMis,
+                   "JG19 MIS densities: regularised (default; Eq. 13) or sampling (the naive weights, JG19 Fig. 3a)")
+        ->check(CLI::IsMember({"regularised", "sampling"}));
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
     app.footer("Exit codes: 0 success, 1 bad command line, 2 bad scene, 3 output not written, 4 runtime error.");
@@ -109,6 +123,10 @@ int main(int argc, char** argv) {
     settings.radius = radius > 0.f ? radius : desc.integrator.radius;
     settings.radiusAlpha = radiusAlpha > 0.f ? radiusAlpha : desc.integrator.radiusAlpha;
     settings.strategyImages = strategyImages;
+    settings.regularizer = !regularizer.empty() ? regularizer : desc.integrator.regularizer;
+    settings.regTau = regTau > 0.0 ? regTau : desc.integrator.regTau;
+    settings.regSchedule = !regSchedule.empty() ? regSchedule : desc.integrator.regSchedule;
+    settings.regMis = !regMis.empty() ? regMis : desc.integrator.regMis;
 
     try {
         makeIntegrator(settings);  // validates the name before any work
@@ -151,8 +169,14 @@ int main(int argc, char** argv) {
 
     double sps = stats.seconds > 0 ? double(stats.samples) / stats.seconds : 0.0;
     double rps = stats.seconds > 0 ? double(stats.rays) / stats.seconds : 0.0;
-    fmt::print("{}: {} spp, {:.3f} s, {}samples/s, {}rays/s, {} invalid samples -> {}\n", settings.integrator,
-               stats.spp, stats.seconds, formatRate(sps), formatRate(rps), stats.invalidSamples, output);
+    fmt::print("{}: {} spp, {:.3f} s, {}samples/s, {}rays/s, {} invalid samples", settings.integrator, stats.spp,
+               stats.seconds, formatRate(sps), formatRate(rps), stats.invalidSamples);
+    const double regShare =
+        stats.contributions ? double(stats.regularisedContributions) / double(stats.contributions) : 0.0;
+    if (settings.regularizer != "none")
+        fmt::print(", {}: {:.1f}% of contributions regularised, tau_N {:.4g}", settings.regularizer, 100.0 * regShare,
+                   stats.tau);
+    fmt::print(" -> {}\n", output);
     if (!statsJson.empty()) {
         nlohmann::json j;
         j["scene"] = scenePath;
@@ -170,6 +194,16 @@ int main(int argc, char** argv) {
         j["seed"] = settings.seed;
         j["threads"] = threads;
         j["max_depth"] = settings.maxDepth;
+        j["regularizer"] = settings.regularizer;
+        if (settings.regularizer != "none") {
+            j["reg_tau0"] = settings.regTau > 0.0 ? settings.regTau : regTauDefault(settings.integrator);
+            j["reg_schedule"] = settings.regSchedule;
+            j["reg_mis"] = settings.regMis;
+            j["reg_tau_last"] = stats.tau;
+            j["contributions"] = stats.contributions;
+            j["regularised_contributions"] = stats.regularisedContributions;
+            j["regularised_share"] = regShare;
+        }
         std::ofstream f(statsJson);
         f << j.dump(2) << "\n";
         if (!f) {

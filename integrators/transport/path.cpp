@@ -1,4 +1,5 @@
 #include "integrators/transport/path_templates.h"
+#include "integrators/transport/jg19.h"
 
 namespace lt {
 
@@ -9,31 +10,41 @@ template PathVertex cameraEndpoint(const Scene&, const reg::None&);
 template int cameraWalk(const Scene&, const reg::None&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,
                         WalkPdfs);
 template Color emitterHit(const Scene&, const reg::None&, const PathVertex*, int, PathPdfs&, int);
-template bool merge(const reg::None&, const Photon&, const VertexPdfs*, const PathVertex*, int, Connection&,
+template bool merge(const reg::None&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, int, Connection&,
                     const double*);
+
+template int lightWalk(const Scene&, const reg::Jg19&, Rng&, int, int, PathVertex*, WalkStats&);
+template PathVertex cameraEndpoint(const Scene&, const reg::Jg19&);
+template int cameraWalk(const Scene&, const reg::Jg19&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,
+                        WalkPdfs);
+template Color emitterHit(const Scene&, const reg::Jg19&, const PathVertex*, int, PathPdfs&, int);
+template bool merge(const reg::Jg19&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, int,
+                    Connection&, const double*);
 
 namespace {
 
 using detail::remapDensity;  // (path_inline.h, with the closed form misSumPathTracer)
 
 // sum over all techniques k able to sample the path of (n_k p_k / p_VC(base))^2. `scaled`: each
-// technique's density times its per-technique factor (PathPdfs::perTechnique); unscaled, the
-// factors below are the constant 1 and fold away. (Out of line, both: inlined into misSum, the
-// scaled one made the VCM probe's instruction count +0.01% worse.)
+// technique's density times its per-technique factor (PathPdfs::perTechnique; a technique with
+// factor 0 does not count); unscaled, the
+// factors below are the constant 1 and fold away. The sum is relative to the base's unscaled
+// density: the weights below multiply by the base's own factor. (Out of line, both: inlined into
+// misSum, the scaled one made the VCM probe's instruction count +0.01% worse.)
 template <bool scaled>
 [[gnu::noinline]] double sumOverTechniques(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     const int n = pdfs.n;
-    // The factors of connection technique k and of the merge at x_k, relative to the base's.
-    const double invBase = scaled ? 1.0 / double(pdfs.connectionScale[base]) : 1.0;
-    auto connectionScale = [&](int k) { return scaled ? double(pdfs.connectionScale[k]) * invBase : 1.0; };
-    auto mergeScale = [&](int k) { return scaled ? double(pdfs.mergeScale[k]) * invBase : 1.0; };
+    auto connectionScale = [&](int k) { return scaled ? double(pdfs.connectionScale[k]) : 1.0; };
+    auto mergeScale = [&](int k) { return scaled ? double(pdfs.mergeScale[k]) : 1.0; };
     auto validVC = [&](int k) {
         if (!allowsTechnique(cfg.set, k, n - k)) return false;
-        if (k == 0) return pdfs.lightHittable;
+        if (k == 0) return pdfs.lightHittable && (!scaled || pdfs.connectionScale[0] > 0.f);
         if (k == n) return false;  // pinhole camera
-        return !pdfs.delta[k - 1] && !pdfs.delta[k];
+        return !pdfs.delta[k - 1] && !pdfs.delta[k] && (!scaled || pdfs.connectionScale[k] > 0.f);
     };
-    auto validVM = [&](int i) { return cfg.merging && i >= 1 && i <= n - 2 && !pdfs.delta[i]; };
+    auto validVM = [&](int i) {
+        return cfg.merging && i >= 1 && i <= n - 2 && !pdfs.delta[i] && (!scaled || pdfs.mergeScale[i] > 0.f);
+    };
     const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
     // The range of k in which a technique may be valid, to stop the ratio chains early.
     int kMin = 0, kMax = n;
@@ -94,11 +105,18 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     return sumOverTechniques<false>(pdfs, base, cfg);
 }
 
+// The weight of connection technique s from the sum (relative to its unscaled density).
+float connectionWeight(const PathPdfs& pdfs, int s, double sum) {
+    if (!(sum > 0.0)) return 0.f;
+    if (!pdfs.perTechnique) return float(1.0 / sum);
+    const double own = pdfs.connectionScale[s];
+    return float(own * own / sum);
+}
+
 }  // namespace
 
 float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
-    double sum = misSumGeneral(pdfs, s, cfg);
-    return sum > 0.0 ? float(1.0 / sum) : 0.f;
+    return connectionWeight(pdfs, s, misSumGeneral(pdfs, s, cfg));
 }
 
 double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev) {
@@ -128,13 +146,12 @@ double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double 
 }
 
 float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
-    double sum = misSum(pdfs, s, cfg);
-    return sum > 0.0 ? float(1.0 / sum) : 0.f;
+    return connectionWeight(pdfs, s, misSum(pdfs, s, cfg));
 }
 
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
     double own = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(pdfs.fromLight[i]);
-    if (pdfs.perTechnique) own *= double(pdfs.mergeScale[i]) / double(pdfs.connectionScale[i]);
+    if (pdfs.perTechnique) own *= double(pdfs.mergeScale[i]);
     double sum = misSum(pdfs, i, cfg);
     return sum > 0.0 ? float(own * own / sum) : 0.f;
 }

@@ -73,7 +73,7 @@ struct PathVertex : SurfacePoint {
     // the unit direction to it and `segment` the distance (null, zero and 0 at an endpoint:
     // depth 0, path length 0); the lobe is set when the walk continues from here.
     template <class Reg>
-    void init(const Reg& reg, VertexKind k, const PathVertex* prev, const Vec3& toPrev, float segment,
+    void init(const Reg& reg, VertexKind k, PathVertex* prev, const Vec3& toPrev, float segment,
               const Color& throughput, AreaPdf pL, AreaPdf pC, bool atInfinity = false) {
         kind = k;
         wo = toPrev;
@@ -130,6 +130,9 @@ struct RayLog {
 
 struct WalkStats {
     uint64_t rays = 0;
+    // Counted by the integrators under a regulariser only: weighted non-zero contributions, and
+    // those whose own technique evaluated a regularised BSDF (PathPdfs::regularised).
+    uint64_t contributions = 0, regularised = 0;
     RayLog* log = nullptr;  // usually null: one predictable branch per ray
 };
 
@@ -204,9 +207,14 @@ struct PathPdfs {
     double aboveBase = -1.0;
     // Per-technique densities (regularizer.h (2)): when perTechnique, the density of connection
     // technique k (k light vertices, 0..n) is its product of the entries above times
-    // connectionScale[k], that of the merge at x_i times mergeScale[i] (factors > 0, written by
-    // the regulariser; not read otherwise).
+    // connectionScale[k], that of the merge at x_i times mergeScale[i] (factors >= 0, written by
+    // the regulariser; not read otherwise). A factor of 0 means the technique cannot sample the
+    // path; the delta flags still apply (a regulariser that makes a delta vertex a connection
+    // end clears its flag in the gathered pdfs).
+    // `regularised`: the technique being weighted itself evaluated a regularised BSDF (for the
+    // statistics; written with the factors).
     bool perTechnique = false;
+    bool regularised = false;
     std::array<float, kMaxPathVertices + 1> connectionScale;
     std::array<float, kMaxPathVertices> mergeScale;
 };
@@ -270,7 +278,8 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
                  int readLimit = kMaxPathVertices);
 
 // Merge (vertex merging) of light vertex y[i] (i >= 1; `photon` holds what is needed of y[i] and
-// y[i-1], `lightPdfs` the densities of y[0..i]) with camera vertex z[t-1] (t >= 2): the
+// y[i-1], `y` the light subpath's vertices y[0..i] and `lightPdfs` their densities; y may be null
+// unless the regulariser has per-technique densities) with camera vertex z[t-1] (t >= 2): the
 // unweighted contribution f_z(z.wo, y.wo) * beta_y * beta_z (the caller divides by N pi r^2)
 // and the pdfs of the merged path for misWeightMerge(pdfs, i).
 // With lightPdfs == nullptr the fast form is used: only the camera side and the merge vertex's
@@ -280,8 +289,8 @@ struct VertexPdfs;
 // With cameraSums (cameraSums[m] = cameraPrefixSum of z[m]) the camera side is O(1) too.
 // (path_templates.h)
 template <class Reg>
-bool merge(const Reg& reg, const Photon& photon, const VertexPdfs* lightPdfs, const PathVertex* z, int t,
-           Connection& c, const double* cameraSums = nullptr);
+bool merge(const Reg& reg, const Photon& photon, const PathVertex* y, const VertexPdfs* lightPdfs, const PathVertex* z,
+           int t, Connection& c, const double* cameraSums = nullptr);
 
 // For light vertex y[m] of a light subpath (pdfs of y[0..m]): the sum over techniques k <= m of
 // (p_k / p_VC(m+1))^2 / (pC[m] / pL[m])^2, i.e. what a merge at y[m+1] needs of the light side
@@ -299,6 +308,8 @@ double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double 
 // readLimit + 1 skipped: see misReadLimit), n = s + t.
 inline void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
 inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
+
+inline bool reg::None::connectible(const PathVertex& v) const { return v.connectible(); }
 
 }  // namespace lt
 

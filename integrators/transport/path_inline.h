@@ -14,6 +14,16 @@ namespace detail {
 // through a delta lobe store generalised densities: see "Delta vertices" in path.h.)
 inline double remapDensity(float p) { return p != 0.f ? double(p) : 1.0; }
 
+// rho_hat / rho of one BSDF evaluation pair, as a scalar (the means of the channels): +inf when rho
+// is 0 and rho_hat is not (a delta lobe evaluates to 0), exactly 1 when the two are equal (no
+// regularisation there, both 0 included).
+inline float regularisedRatio(const Color& hat, const Color& plain) {
+    const float p = plain.x + plain.y + plain.z, h = hat.x + hat.y + hat.z;
+    if (h == p) return 1.f;
+    if (!(p > 0.f)) return kInf;
+    return h / p;
+}
+
 // The MIS sum (see misSumGeneral in path.cpp) for the path tracer's two techniques (s = 0: emitter
 // hit, s = 1: NEE), which compare only x_0's two densities: the terms the plain sum adds for
 // k = 0 and k = 1, in closed form, as a fraction den / num. With a = p_1^2 and b = p_0^2 (the
@@ -46,14 +56,16 @@ inline AreaPdf emissionDensity(const Scene& scene, const PathVertex& lv, const V
 // A connection (or merge) vertex's BSDF towards wi, evaluated with the technique's context
 // (regularizer.h (1)): the value is the regularised one, the densities stay those of the
 // material's own BSDF, which is what the walks sample (a request changes a technique's density in
-// the MIS only through its per-technique factor, regularizer.h (2)). Without a request: one
-// evaluation, as ever.
-inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx) {
+// the MIS only through its per-technique factor, regularizer.h (2)). `ratio` receives
+// rho_hat / rho (channel means; +inf when rho is 0 or a delta). Without a request: one
+// evaluation, as ever, and ratio 1.
+inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio) {
     BsdfEval e = v.bsdf().eval(v.wo, wi, ctx);
     if (!ctx.reg.empty()) {
         const BsdfEval plain = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
         e.pdfFwd = plain.pdfFwd;
         e.pdfRev = plain.pdfRev;
+        ratio = regularisedRatio(e.f, plain.f);
     }
     return e;
 }
@@ -122,7 +134,7 @@ template <ConnectEnds ends, class Reg>
 inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
                     Connection& c, WalkStats& stats, int readLimit) {
     if constexpr (Reg::kPerTechnique) readLimit = kMaxPathVertices;  // every technique's vertices are read
-    const Technique tech{y, s, z, t};
+    Technique tech{y, s, z, t};
     const PathVertex& a = y[s - 1];  // light side
     const PathVertex& b = z[t - 1];  // camera side
     // The vertex kinds, constant at a next-event estimation site (the tests on them fold away).
@@ -130,8 +142,8 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     const bool aLight = nee || a.kind == VertexKind::Light;
     const bool aSurface = !nee && a.kind == VertexKind::Surface;
     const bool toCamera = !nee && b.kind == VertexKind::Camera;
-    if (!nee && !toCamera && (b.kind != VertexKind::Surface || b.infinite || !b.connectible())) return false;
-    if (aSurface && !a.connectible()) return false;
+    if (!nee && !toCamera && (b.kind != VertexKind::Surface || b.infinite || !reg.connectible(b))) return false;
+    if (aSurface && !reg.connectible(a)) return false;
     if (toCamera && a.infinite) return false;
     Vec3 d = a.p - b.p;
     const float abDist2 = glm::dot(d, d);  // the segment's squared length, for the densities
@@ -155,7 +167,7 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
         eb.pdfFwd = cam.directionPdf(wBA);
         cosB = glm::dot(cam.forward(), wBA);
     } else {
-        eb = detail::evalAtConnection(b, wBA, reg.context(tech, End::Camera));
+        eb = detail::evalAtConnection(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera);
         cosB = std::abs(glm::dot(b.shading.n, wBA));
     }
     if (isBlack(eb.f)) return false;
@@ -164,7 +176,7 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     if (aLight) {
         fa = detail::lightEndpointValue(a, -wBA);
     } else {
-        ea = detail::evalAtConnection(a, -wBA, reg.context(tech, End::Light));
+        ea = detail::evalAtConnection(a, -wBA, reg.context(tech, End::Light), tech.ratioLight);
         fa = ea.f;
     }
     if (isBlack(fa)) return false;
@@ -196,8 +208,14 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
                                 : convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
     if (t >= 2 && s + 1 <= readLimit)
         P.fromLight[s + 1] = convertDensity(eb.pdfRev, z[t - 2], b.wo, sqr(b.segmentLength)).value;
-    P.perTechnique = Reg::kPerTechnique;
-    if constexpr (Reg::kPerTechnique) reg.densities(tech, P);
+    P.perTechnique = false;
+    P.regularised = false;
+    if constexpr (Reg::kPerTechnique) {
+        if (reg.perTechnique(tech)) {
+            P.perTechnique = true;
+            reg.densities(tech, P);
+        }
+    }
     c.contribution = contrib;
     return true;
 }

@@ -3,6 +3,7 @@
 // merges (declared in path.h). path.cpp instantiates them for the renderer's policies; code that
 // brings a policy of its own (tests) includes this file.
 #pragma once
+#include <stdexcept>
 #include "integrators/transport/light_paths.h"
 #include "integrators/transport/path.h"
 
@@ -202,30 +203,43 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
     // light travels along v.wo, over the segment that arrived at v
     if (readLimit >= 1)
         pdfs.fromLight[1] = detail::emissionDensity(scene, v, v.wo, z[t - 2], sqr(v.segmentLength)).value;
-    pdfs.perTechnique = Reg::kPerTechnique;
-    if constexpr (Reg::kPerTechnique) reg.densities(Technique{nullptr, 0, z, t}, pdfs);
+    pdfs.perTechnique = false;
+    pdfs.regularised = false;
+    if constexpr (Reg::kPerTechnique) {
+        const Technique tech{nullptr, 0, z, t};
+        if (reg.perTechnique(tech)) {
+            pdfs.perTechnique = true;
+            reg.densities(tech, pdfs);
+        }
+    }
     return v.beta * Le;
 }
 
 template <class Reg>
-bool merge(const Reg& reg, const Photon& ph, const VertexPdfs* lightPdfs, const PathVertex* z, int t, Connection& c,
-           const double* cameraSums) {
-    // The camera-side sums are unregularised: bypassed with per-technique densities (and the
-    // light side must be gathered then, lightPdfs given: photon.misLight is unregularised too).
-    if constexpr (Reg::kPerTechnique) cameraSums = nullptr;
+bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPdfs* lightPdfs, const PathVertex* z,
+           int t, Connection& c, const double* cameraSums) {
     const int i = ph.depth;
     const PathVertex& zv = z[t - 1];
     if (i < 1 || t < 2 || !zv.connectible() || zv.infinite) return false;
     if (glm::dot(ph.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
-    const Technique tech{nullptr, i + 1, z, t, &ph};
-    BsdfEval ez = detail::evalAtConnection(zv, ph.wo, reg.context(tech, End::Camera));
+    Technique tech{y, i + 1, z, t, &ph};
+    BsdfEval ez = detail::evalAtConnection(zv, ph.wo, reg.context(tech, End::Camera), tech.ratioCamera);
     if (isBlack(ez.f)) return false;
     c.contribution = zv.beta * ez.f * ph.beta;
+    // The fast forms (photon.misLight, cameraSums) hold unregularised sums: a path on which the
+    // regulariser changes some technique's density is gathered on both sides (y and lightPdfs
+    // given). Otherwise the light side is gathered when lightPdfs is given without cameraSums.
+    bool perTechnique = false;
+    if constexpr (Reg::kPerTechnique) perTechnique = reg.perTechnique(tech);
+    if (perTechnique && (!y || !lightPdfs))
+        throw std::logic_error("merge: per-technique densities need the light subpath");
+    if (perTechnique) cameraSums = nullptr;
+    const bool gatherLight = perTechnique || (lightPdfs && !cameraSums);
     // Full path: x_0..x_i from the light subpath (x_i at the camera vertex), then z[t-2]..z[0].
     PathPdfs& P = c.pdfs;
     P.belowBase = -1.0;
     P.aboveBase = cameraSums ? (t >= 3 ? cameraSums[t - 3] : 0.0) : -1.0;
-    if (lightPdfs) {
+    if (gatherLight) {
         for (int k = 0; k <= i; ++k) {
             P.fromLight[k] = lightPdfs[k].fromLight;
             P.fromCamera[k] = lightPdfs[k].fromCamera;
@@ -249,12 +263,13 @@ bool merge(const Reg& reg, const Photon& ph, const VertexPdfs* lightPdfs, const 
         P.fromCamera[i - 1] = d2 > 0.f ? ez.pdfFwd.value * cosPrev / d2 : 0.f;
     }
     P.fromLight[i + 1] = convertDensity(ez.pdfRev, z[t - 2], zv.wo, sqr(zv.segmentLength)).value;
-    if (!lightPdfs) {
+    if (!gatherLight) {
         double ratio = detail::remapDensity(P.fromCamera[i - 1]) / detail::remapDensity(P.fromLight[i - 1]);
         P.belowBase = ratio * ratio * ph.misLight;
     }
-    P.perTechnique = Reg::kPerTechnique;
-    if constexpr (Reg::kPerTechnique) reg.densities(tech, P);
+    P.perTechnique = perTechnique;
+    P.regularised = false;
+    if (perTechnique) reg.densities(tech, P);
     return true;
 }
 

@@ -20,25 +20,36 @@
 //        the materials' own BSDFs (JG19 Sec. 3). None returns the constant context of the mode.
 //
 //  (2) Per-technique densities for MIS.
-//        kPerTechnique, densities(tech, pdfs): a regulariser changes the integrand of technique k
-//        at k's own connection vertices x_{k-1}, x_k (of the merge at x_i: at x_i), and so k's
-//        density in the MIS (JG19 Eq. 13: p_hat_k = rho_hat / rho p_k, each technique at its own
-//        vertices, not at those of the technique being weighted). After connect, emitterHit or
-//        merge has gathered the path's densities, a policy with kPerTechnique = true writes the
-//        factor of every technique, evaluated from the path's vertices (tech gives both subpaths),
-//        into PathPdfs::connectionScale[k] and mergeScale[i], and the MIS sums multiply each
-//        technique's density by its factor (PathPdfs::perTechnique). The fast forms that do not
-//        see every technique's vertices are bypassed then: the path tracer's limited gathers
-//        (readLimit, WalkPdfs::EmitterHits), its closed-form weight, and the camera-side sums of
-//        merges (cameraSums). A merge's light side must then be gathered (lightPdfs given):
-//        photon.misLight holds unregularised sums only.
-//
+//        kPerTechnique, perTechnique(tech), densities(tech, pdfs): a regulariser changes the
+//        integrand of technique k at k's own connection vertices x_{k-1}, x_k (of the merge at x_i:
+//        at x_i), and so k's density in the MIS (JG19 Eq. 13: p_hat_k = rho_hat / rho p_k, each
+//        technique at its own vertices, not at those of the technique being weighted). A policy
+//        with kPerTechnique = true is asked per evaluated technique, once its connection ends
+//        are evaluated (tech.ratioLight, ratioCamera), whether the path needs per-technique
+//        densities at all (perTechnique: false when no vertex of the path is regularised, and
+//        then everything runs as unregularised, fast forms included). If it does, after connect,
+//        emitterHit or merge has gathered the path's densities, densities() writes the factor of
+//        every technique, evaluated from the path's vertices (tech gives both subpaths), into
+//        PathPdfs::connectionScale[k] and mergeScale[i] (0: the technique cannot sample the path),
+//        and the MIS sums multiply each technique's density by its factor. The fast forms that do
+//        not see every technique's vertices are bypassed then: the path tracer's limited gathers
+//        (readLimit, WalkPdfs::EmitterHits: bypassed for every path, as the walk cannot know),
+//        its closed-form weight, and the merges' prefix sums (photon.misLight, cameraSums): merge
+//        then needs the light subpath's vertices and densities.
 //  (3) Per-subpath state carried on the vertices.
 //        start(v): at a subpath's endpoint (camera, light, NEE light sample), after its record is
 //        written; extend(v, prev): at every vertex a walk adds, from the vertex it came from
 //        (prev's lobe is known then; v's densities are not yet). Both write v.regState, a
 //        SubpathState: what a regulariser accumulates along a subpath (JG19's diffusion, OPSR's
-//        product of (1 - gamma alpha_i)). None writes nothing (the field is left as it was).
+//        product of (1 - gamma alpha_i)); extend may also complete prev's state, whose two
+//        neighbours are known from then on (JG19's ratio rho_hat / rho at prev). None writes
+//        nothing (the field is left as it was).
+//
+//  (4) Where connections may be made, and the iteration.
+//        connectible(v): may a connection use v as an end (None: v.connectible(), no delta
+//        vertex; JG19 makes smooth conductors and dielectrics rough there, so every surface
+//        vertex with a BSDF may). Merges keep v.connectible(): photons lie on non-delta surfaces.
+//        beginIteration(n): before iteration (pass) n >= 1 starts, walks included (JG19's tau_n).
 #pragma once
 #include "bsdf/bsdf.h"
 
@@ -48,11 +59,14 @@ struct PathVertex;
 struct PathPdfs;
 struct Photon;
 
-// Per-subpath state of a regulariser on every vertex (PathVertex::regState). One float today: it
-// fits the vertex record's tail padding (the record stays 144 bytes). A regulariser that needs
-// more (JG19's 2D diffusion) widens it here.
+// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Two floats: the
+// record is 152 bytes with them (144 with one, which fit the tail padding). A regulariser that
+// needs more (JG19's 2D diffusion) widens it here.
 struct SubpathState {
-    float accumulated = 0.f;
+    float accumulated = 0.f;  // (JG19: the number of vertices before this one whose ratio is finite, not 1)
+    // JG19: rho_hat / rho at this vertex, between its two neighbours on its own subpath (written
+    // when the walk extends past it; +inf when rho is 0 or a delta: a "singular" vertex).
+    float ratio = 1.f;
 };
 
 // The vertices of the technique that connect, emitterHit or merge evaluates.
@@ -62,6 +76,10 @@ struct Technique {
     const PathVertex* z = nullptr;  // camera subpath z[0..t-1]
     int t = 0;
     const Photon* photon = nullptr;  // a merge: the light vertex y[i] merged at z[t-1] (s = i + 1)
+    // rho_hat / rho of the BSDF at the technique's own connection ends, y[s-1] (light) and z[t-1]
+    // (camera; for a merge, its camera vertex), as the routine evaluated them (1 without a
+    // request; +inf when rho is 0 or a delta). Written by connect and merge before densities().
+    float ratioLight = 1.f, ratioCamera = 1.f;
 };
 
 // The two ends of a technique's connection.
@@ -77,10 +95,14 @@ struct None {
     }
     // (2) No per-technique densities: the MIS compares the unregularised densities.
     static constexpr bool kPerTechnique = false;
+    bool perTechnique(const Technique&) const { return false; }
     void densities(const Technique&, PathPdfs&) const {}
     // (3) No per-subpath state.
     void start(PathVertex&) const {}
-    void extend(PathVertex&, const PathVertex&) const {}
+    void extend(PathVertex&, PathVertex&) const {}
+    // (4) Connections at non-delta vertices only; nothing depends on the iteration.
+    bool connectible(const PathVertex& v) const;
+    void beginIteration(uint64_t) {}
 };
 // The unregularised policy as a value, for callers that pass it directly (the tests).
 inline constexpr None kNone{};
@@ -88,3 +110,5 @@ inline constexpr None kNone{};
 }  // namespace reg
 
 }  // namespace lt
+
+// (None::connectible needs the vertex record: defined at the end of path.h.)
