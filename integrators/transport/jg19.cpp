@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 #include "bsdf/roughness_bound.h"
+#include "integrators/transport/path_templates.h"
 
 namespace lt::reg {
 
@@ -109,3 +110,17 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
 }
 
 }  // namespace lt::reg
+
+namespace lt {
+
+// The templates of path_templates.h for this policy (path.cpp has the unregularised ones).
+template int lightWalk(const Scene&, const reg::Jg19&, Rng&, int, int, PathVertex*, WalkStats&);
+template PathVertex cameraEndpoint(const Scene&, const reg::Jg19&);
+template int cameraWalk(const Scene&, const reg::Jg19&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,
+                        WalkPdfs);
+template Color emitterHit(const Scene&, const reg::Jg19&, const PathVertex*, int, PathPdfs&, int);
+template bool merge(const reg::Jg19&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, int,
+                    Connection&, const double*);
+
+
+}  // namespace lt
