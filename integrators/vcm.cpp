@@ -197,7 +197,7 @@ private:
             // Connections at the vertices the regulariser makes connectible (the same as merges
             // without one: not at infinity, not delta); merges at non-delta vertices only.
             const bool canMerge = !v.infinite && v.connectible();
-            const bool canConnect = canMerge || (!v.infinite && reg_.connectible(v));
+            const bool canConnect = !v.infinite && reg_.connectible(v);  // (includes every vertex canMerge does)
             if (!canConnect) {
                 allDelta = allDelta && v.delta;
                 continue;
@@ -227,8 +227,9 @@ private:
                     const PathVertex* ly = nullptr;
                     const VertexPdfs* lp = nullptr;
                     if constexpr (Reg::kPerTechnique) {
-                        ly = store_.vertices().data() + (ph.vertex - ph.depth);
-                        lp = store_.pdfs().data() + (ph.vertex - ph.depth);
+                        const size_t y0 = ph.vertex - ph.depth;  // the photon's light subpath in the store
+                        ly = store_.vertices().data() + y0;
+                        lp = store_.pdfs().data() + y0;
                     }
                     if (!merge(reg_, ph, ly, lp, z, t, c, cameraSums.data())) return;
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);

@@ -20,13 +20,9 @@ void Jg19::beginIteration(uint64_t n) {
 }
 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {
-    if (v.kind != VertexKind::Surface || v.infinite || !v.bxdf || v.bxdf->lambert()) return 1.f;
-    if (!(v.bxdf->flags() & (kGlossy | kDelta))) return 1.f;
-    if (v.deltaBsdf && v.bxdf->deltaUnder(radiance_)) return 1.f;  // a delta still: both 0
+    if (!detail::requestCanChange(v, radiance_)) return 1.f;
     const SurfaceBsdf b = v.bsdf();
-    const Color hat = b.eval(v.wo, wi, radiance_).f;
-    const Color plain = b.eval(v.wo, wi, kRadianceContext).f;
-    return detail::regularisedRatio(hat, plain);
+    return detail::regularisedRatio(b.eval(v.wo, wi, radiance_).f, b.eval(v.wo, wi, kRadianceContext).f);
 }
 
 namespace {
@@ -36,18 +32,17 @@ struct PathView {
     const Technique& tech;
     int n;
     bool isMerge;
+    int lightCount;           // x_0..x_{lightCount-1} are y[0..]; a merge's x_i is its camera vertex
     int lightEnd, cameraEnd;  // the base's own ends (x indices; -1: none)
 
-    PathView(const Technique& t, int pathLength) : tech(t), n(pathLength), isMerge(t.photon != nullptr) {
+    PathView(const Technique& t, int pathLength)
+        : tech(t), n(pathLength), isMerge(t.photon != nullptr), lightCount(isMerge ? t.s - 1 : t.s) {
         if (isMerge) lightEnd = -1, cameraEnd = t.s - 1;  // x_i, the merge's camera vertex
         else if (t.s == 0) lightEnd = cameraEnd = -1;     // an emitter hit: no connection
         else lightEnd = t.s - 1, cameraEnd = t.s;
     }
     bool inner(int j) const { return j >= 1 && j <= n - 2; }  // x_0, x_{n-1}: the endpoints
-    const PathVertex& vertex(int j) const {
-        const int lightCount = isMerge ? tech.s - 1 : tech.s;  // a merge's x_i is its camera vertex
-        return j < lightCount ? tech.y[j] : tech.z[n - 1 - j];
-    }
+    const PathVertex& vertex(int j) const { return j < lightCount ? tech.y[j] : tech.z[n - 1 - j]; }
     float ratio(int j) const {
         if (j == lightEnd) return tech.ratioLight;
         if (j == cameraEnd) return tech.ratioCamera;
@@ -59,10 +54,9 @@ struct PathView {
 
 bool Jg19::perTechnique(const Technique& tech) const {
     if (tech.ratioLight != 1.f || tech.ratioCamera != 1.f) return true;
-    const int lightCount = tech.photon ? tech.s - 1 : tech.s;  // y[0..lightCount-1] on the path
-    // accumulated counts the vertices before the subpath's last one (its own ratio is the base's).
-    if (lightCount >= 1 && tech.y && tech.y[lightCount - (tech.photon ? 0 : 1)].regState.accumulated > 0.f)
-        return true;
+    // accumulated counts the vertices before its own on its subpath: y[s-1] (a connection's light
+    // end, or the photon's vertex y[i] of a merge, s = i + 1) and z[t-1] cover the rest of the path.
+    if (tech.s >= 1 && tech.y && tech.y[tech.s - 1].regState.accumulated > 0.f) return true;
     return tech.t >= 1 && tech.z[tech.t - 1].regState.accumulated > 0.f;
 }
 
@@ -74,11 +68,8 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
     int singular[2], nSingular = 0;
     for (int j : {path.lightEnd, path.cameraEnd})
         if (j >= 0 && path.inner(j) && std::isinf(path.ratio(j))) singular[nSingular++] = j;
-    bool deltaBefore[2] = {false, false};
-    for (int m = 0; m < nSingular; ++m) {
-        deltaBefore[m] = P.delta[singular[m]];
+    for (int m = 0; m < nSingular; ++m)
         P.delta[singular[m]] = false;  // connectible now: the factors decide (regularizer.h (2))
-    }
     // The factor of the technique whose regularised vertices are {a, b} (-1: none).
     auto factor = [&](int a, int b) -> float {
         for (int m = 0; m < nSingular; ++m)
@@ -100,12 +91,9 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
     P.connectionScale[0] = factor(-1, -1);
     for (int k = 1; k < n; ++k) P.connectionScale[k] = factor(k - 1, k);
     P.connectionScale[n] = 0.f;  // (the pinhole: never valid)
-    for (int i = 0; i < n; ++i) {
-        bool wasDelta = P.delta[i];
-        for (int m = 0; m < nSingular; ++m) wasDelta = wasDelta || (singular[m] == i && deltaBefore[m]);
-        // Photons lie on non-delta surfaces only.
-        P.mergeScale[i] = path.inner(i) && !wasDelta && !path.vertex(i).deltaBsdf ? factor(i, -1) : 0.f;
-    }
+    // Merges where the photon grid stores photons and merge() gathers them: connectible vertices.
+    for (int i = 0; i < n; ++i)
+        P.mergeScale[i] = path.inner(i) && path.vertex(i).connectible() ? factor(i, -1) : 0.f;
     P.regularised = (path.lightEnd >= 0 && tech.ratioLight != 1.f) || (path.cameraEnd >= 0 && tech.ratioCamera != 1.f);
 }
 
@@ -114,13 +102,6 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
 namespace lt {
 
 // The templates of path_templates.h for this policy (path.cpp has the unregularised ones).
-template int lightWalk(const Scene&, const reg::Jg19&, Rng&, int, int, PathVertex*, WalkStats&);
-template PathVertex cameraEndpoint(const Scene&, const reg::Jg19&);
-template int cameraWalk(const Scene&, const reg::Jg19&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,
-                        WalkPdfs);
-template Color emitterHit(const Scene&, const reg::Jg19&, const PathVertex*, int, PathPdfs&, int);
-template bool merge(const reg::Jg19&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, int,
-                    Connection&, const double*);
-
+LT_INSTANTIATE_TRANSPORT(reg::Jg19)
 
 }  // namespace lt

@@ -5,13 +5,7 @@ namespace lt {
 // The unregularised instantiations of the templates of path_templates.h; each regulariser
 // compiles its own in its own file (jg19.cpp): in one unit, two instantiations of the walk made
 // GCC stop inlining the BSDF sampling into the unregularised one (+1.6% instructions, VCM).
-template int lightWalk(const Scene&, const reg::None&, Rng&, int, int, PathVertex*, WalkStats&);
-template PathVertex cameraEndpoint(const Scene&, const reg::None&);
-template int cameraWalk(const Scene&, const reg::None&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,
-                        WalkPdfs);
-template Color emitterHit(const Scene&, const reg::None&, const PathVertex*, int, PathPdfs&, int);
-template bool merge(const reg::None&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, int, Connection&,
-                    const double*);
+LT_INSTANTIATE_TRANSPORT(reg::None)
 
 namespace {
 

@@ -53,21 +53,46 @@ inline AreaPdf emissionDensity(const Scene& scene, const PathVertex& lv, const V
     return convertDensity(l.pdfLeDir(lv.ng, travelDir), to, travelDir, dist2);
 }
 
+// Whether a regularisation request can change v's BSDF at all: false for vertices without a
+// BSDF, for Lambert and other lobes that are neither glossy nor delta (they ignore requests), and
+// for a smooth BSDF that ctx leaves a delta (its eval is 0 either way). Where it is false, the
+// BSDF with the request is the BSDF without it: one evaluation serves, and rho_hat / rho is 1.
+inline bool requestCanChange(const PathVertex& v, const BsdfContext& ctx) {
+    if (ctx.reg.empty() || v.kind != VertexKind::Surface || v.infinite || !v.bxdf || v.bxdf->lambert()) return false;
+    if (!(v.bxdf->flags() & (kGlossy | kDelta))) return false;
+    return !(v.deltaBsdf && v.bxdf->deltaUnder(ctx));
+}
+
 // A connection (or merge) vertex's BSDF towards wi, evaluated with the technique's context
 // (regularizer.h (1)): the value is the regularised one, the densities stay those of the
 // material's own BSDF, which is what the walks sample (a request changes a technique's density in
 // the MIS only through its per-technique factor, regularizer.h (2)). `ratio` receives
-// rho_hat / rho (channel means; +inf when rho is 0 or a delta). Without a request: one
-// evaluation, as ever, and ratio 1.
+// rho_hat / rho (channel means; +inf when rho is 0 or a delta). Where the request cannot change
+// the BSDF (requestCanChange): one evaluation, as ever, and ratio 1.
 inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio) {
+    if (!requestCanChange(v, ctx)) return v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
     BsdfEval e = v.bsdf().eval(v.wo, wi, ctx);
-    if (!ctx.reg.empty()) {
-        const BsdfEval plain = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
-        e.pdfFwd = plain.pdfFwd;
-        e.pdfRev = plain.pdfRev;
-        ratio = regularisedRatio(e.f, plain.f);
-    }
+    const BsdfEval plain = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
+    e.pdfFwd = plain.pdfFwd;
+    e.pdfRev = plain.pdfRev;
+    ratio = regularisedRatio(e.f, plain.f);
     return e;
+}
+
+// After a routine has gathered a technique's densities: a policy with per-technique densities
+// writes its factors if the path needs them (perTechnique, decided by the caller with
+// needsPerTechnique), and whether the technique itself was regularised (regularizer.h (2)).
+template <class Reg>
+bool needsPerTechnique(const Reg& reg, const Technique& tech) {
+    if constexpr (Reg::kPerTechnique) return reg.perTechnique(tech);
+    return false;
+}
+template <class Reg>
+void techniqueDensities(const Reg& reg, const Technique& tech, PathPdfs& pdfs, bool perTechnique) {
+    pdfs.perTechnique = perTechnique;
+    pdfs.regularised = false;
+    if constexpr (Reg::kPerTechnique)
+        if (perTechnique) reg.densities(tech, pdfs);
 }
 
 // Value a light endpoint sends towards direction w (radiance, intensity or irradiance).
@@ -208,14 +233,7 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
                                 : convertDensity(ea.pdfFwd, b, wBA, abDist2).value;
     if (t >= 2 && s + 1 <= readLimit)
         P.fromLight[s + 1] = convertDensity(eb.pdfRev, z[t - 2], b.wo, sqr(b.segmentLength)).value;
-    P.perTechnique = false;
-    P.regularised = false;
-    if constexpr (Reg::kPerTechnique) {
-        if (reg.perTechnique(tech)) {
-            P.perTechnique = true;
-            reg.densities(tech, P);
-        }
-    }
+    detail::techniqueDensities(reg, tech, P, detail::needsPerTechnique(reg, tech));
     c.contribution = contrib;
     return true;
 }

@@ -203,15 +203,8 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
     // light travels along v.wo, over the segment that arrived at v
     if (readLimit >= 1)
         pdfs.fromLight[1] = detail::emissionDensity(scene, v, v.wo, z[t - 2], sqr(v.segmentLength)).value;
-    pdfs.perTechnique = false;
-    pdfs.regularised = false;
-    if constexpr (Reg::kPerTechnique) {
-        const Technique tech{nullptr, 0, z, t};
-        if (reg.perTechnique(tech)) {
-            pdfs.perTechnique = true;
-            reg.densities(tech, pdfs);
-        }
-    }
+    const Technique tech{nullptr, 0, z, t};
+    detail::techniqueDensities(reg, tech, pdfs, detail::needsPerTechnique(reg, tech));
     return v.beta * Le;
 }
 
@@ -229,8 +222,7 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
     // The fast forms (photon.misLight, cameraSums) hold unregularised sums: a path on which the
     // regulariser changes some technique's density is gathered on both sides (y and lightPdfs
     // given). Otherwise the light side is gathered when lightPdfs is given without cameraSums.
-    bool perTechnique = false;
-    if constexpr (Reg::kPerTechnique) perTechnique = reg.perTechnique(tech);
+    const bool perTechnique = detail::needsPerTechnique(reg, tech);
     if (perTechnique && (!y || !lightPdfs))
         throw std::logic_error("merge: per-technique densities need the light subpath");
     if (perTechnique) cameraSums = nullptr;
@@ -267,10 +259,19 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
         double ratio = detail::remapDensity(P.fromCamera[i - 1]) / detail::remapDensity(P.fromLight[i - 1]);
         P.belowBase = ratio * ratio * ph.misLight;
     }
-    P.perTechnique = perTechnique;
-    P.regularised = false;
-    if (perTechnique) reg.densities(tech, P);
+    detail::techniqueDensities(reg, tech, P, perTechnique);
     return true;
 }
+
+// The explicit instantiations of the templates above for one regulariser policy: path.cpp for
+// reg::None, jg19.cpp for reg::Jg19 (each in its own unit: see path.cpp).
+#define LT_INSTANTIATE_TRANSPORT(Reg)                                                                        \
+    template int lightWalk(const Scene&, const Reg&, Rng&, int, int, PathVertex*, WalkStats&);               \
+    template PathVertex cameraEndpoint(const Scene&, const Reg&);                                            \
+    template int cameraWalk(const Scene&, const Reg&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,  \
+                            WalkPdfs);                                                                       \
+    template Color emitterHit(const Scene&, const Reg&, const PathVertex*, int, PathPdfs&, int);             \
+    template bool merge(const Reg&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, \
+                        int, Connection&, const double*);
 
 }  // namespace lt
