@@ -153,6 +153,11 @@ public:
     // conductor or dielectric stays a delta while the request's resolved alpha is below kMinAlpha;
     // such a vertex cannot be a regularised connection end: its eval is 0 for every pair).
     virtual bool deltaUnder(const BsdfContext&) const { return isDelta(); }
+    // rho_bar: an upper bound on the value of f over all direction pairs, with ctx's request
+    // resolved as eval resolves it (JG19 Eqs. 8-9 for microfacet lobes, without Fresnel and
+    // colour, which are <= 1; R / pi for Lambert; +inf for a lobe that is still a delta). JG19's
+    // quality heuristic (Eq. 17) compares connections by it.
+    virtual float valueBound(const BsdfContext& ctx) const = 0;
     // Non-null when this is the plain diffuse model: SurfaceBsdf then evaluates and samples it
     // inline (no virtual call, no spills around one), as pbrt-v4 dispatches on a type tag. The
     // diffuse surface is the most common of all; every other model goes through the virtual calls.

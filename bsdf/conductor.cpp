@@ -3,6 +3,7 @@
 #include "bsdf/bsdf.h"
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
+#include "bsdf/roughness_bound.h"
 
 namespace lt {
 
@@ -54,6 +55,12 @@ public:
 
     uint32_t flags() const override { return rough_ ? (kReflection | kGlossy) : (kReflection | kDelta); }
     bool deltaUnder(const BsdfContext& ctx) const override { return lobe_.resolve(ctx.reg, false, 1.f).delta; }
+    float valueBound(const BsdfContext& ctx) const override {
+        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
+        if (a.delta) return kInf;
+        // (Microfacet clamps each alpha to kMinAlpha; the smaller axis bounds an anisotropic lobe.)
+        return maxValueBound(lobe_.type, lobe_.masking, std::max(std::min(a.u, a.v), kMinAlpha), false, 1.f);
+    }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }

@@ -10,6 +10,7 @@
 #include "bsdf/bsdf.h"
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
+#include "bsdf/roughness_bound.h"
 
 namespace lt {
 
@@ -116,6 +117,20 @@ public:
     // The transmission bound gives the larger alpha_hat (see sample): rough there first.
     bool deltaUnder(const BsdfContext& ctx) const override {
         return eta_ == 1.f || lobe_.resolve(ctx.reg, true, eta_).delta;
+    }
+    // The larger of the reflection and transmission bounds, each with the alphas eval resolves
+    // for its lobe. +inf when both are still deltas; a reflection lobe still a delta beside a
+    // transmission made rough (a narrow range of tau) is left out, as eval leaves it out.
+    float valueBound(const BsdfContext& ctx) const override {
+        if (eta_ == 1.f) return kInf;
+        float bound = -1.f;
+        for (bool transmission : {false, true}) {
+            const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, transmission, eta_);
+            if (a.delta) continue;
+            const float alpha = std::max(std::min(a.u, a.v), kMinAlpha);
+            bound = std::max(bound, maxValueBound(lobe_.type, lobe_.masking, alpha, transmission, eta_));
+        }
+        return bound < 0.f ? kInf : bound;
     }
 
 private:

@@ -19,6 +19,7 @@ public:
 
     uint32_t flags() const override { return kReflection | kDiffuse; }
     float roughness() const override { return 1.f; }
+    float valueBound(const BsdfContext&) const override { return maxComp(model_.f); }
     std::string name() const override { return "diffuse"; }
 
 private:
@@ -47,6 +48,7 @@ public:
 
     uint32_t flags() const override { return inner_->flags(); }
     bool deltaUnder(const BsdfContext& ctx) const override { return inner_->deltaUnder(ctx); }
+    float valueBound(const BsdfContext& ctx) const override { return inner_->valueBound(ctx); }
     float roughness() const override { return inner_->roughness(); }
     Roughness alpha() const override { return inner_->alpha(); }
     std::string name() const override { return "twosided(" + inner_->name() + ")"; }

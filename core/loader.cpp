@@ -134,6 +134,7 @@ private:
         I.regMis = xml::lower(p.getString("reg_mis", "regularised"));
         if (!isIn({"regularised", "sampling"}, I.regMis))
             p.failAt("reg_mis", fmt::format("unknown MIS densities '{}' (supported: regularised, sampling)", I.regMis));
+        I.regQuality = p.getBool("reg_quality", true);
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.
         if (p.has("initial_radius") && p.has("radius")) p.failAt("radius", "give either radius or initial_radius");

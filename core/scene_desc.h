@@ -60,12 +60,14 @@ struct IntegratorDesc {
     bool hideEmitters = false;
     float radius = -1.f;        // VCM/PPM initial radius (<=0: derived from scene size)
     float radiusAlpha = 0.75f;
-    // Path-space regularisation (integrator parameters regularizer, reg_tau, reg_schedule, reg_mis;
-    // the render CLI's --reg, --reg-tau, --reg-schedule, --reg-mis override them).
+    // Path-space regularisation (integrator parameters regularizer, reg_tau, reg_schedule, reg_mis,
+    // reg_quality; the render CLI's --reg, --reg-tau, --reg-schedule, --reg-mis, --reg-quality
+    // override them).
     std::string regularizer = "none";    // none | jg19
     double regTau = -1.0;                // <= 0: the integrator's default
     std::string regSchedule = "consistent";
     std::string regMis = "regularised";
+    bool regQuality = true;              // JG19's sampler quality heuristic (reg_quality)
 };
 
 struct SceneDesc {

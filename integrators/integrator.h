@@ -37,6 +37,7 @@ struct RenderSettings {
     double regTau = -1.0;                    // JG19 tau_0; <= 0: the integrator's default (regTauDefault)
     std::string regSchedule = "consistent";  // consistent (JG19 Eq. 16) | fixed
     std::string regMis = "regularised";      // regularised (JG19 Eq. 13) | sampling (naive weights)
+    bool regQuality = true;                  // JG19's sampler quality heuristic (Eqs. 17-18)
 };
 
 // The bound tau of a regulariser's current iteration, for the statistics (0: none).

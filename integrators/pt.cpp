@@ -19,7 +19,12 @@ public:
         else throw std::invalid_argument("unknown PT strategy '" + s.ptStrategy + "' (supported: mis, nee, bsdf)");
     }
     std::string name() const override { return "pt"; }
-    void beginPass(const Scene&, Film&, uint32_t pass, WalkStats&) override { reg_.beginIteration(uint64_t(pass) + 1); }
+    void beginPass(const Scene& scene, Film&, uint32_t pass, WalkStats&) override {
+        // The techniques a regulariser's choice may count on: next-event estimation's connection
+        // (none when only BSDF sampling runs).
+        const MisConfig cfg{strategy_ == Strategy::Bsdf ? TechniqueSet::None : TechniqueSet::PathTracer};
+        reg_.beginIteration(uint64_t(pass) + 1, scene, cfg);
+    }
     double regularisationTau() const override { return regularisationTauOf(reg_); }
 
     void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,

@@ -50,6 +50,7 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         if (s.regMis == "regularised") j.mis = reg::MisDensities::Regularised;
         else if (s.regMis == "sampling") j.mis = reg::MisDensities::Sampling;
         else throw std::invalid_argument("unknown regularisation MIS '" + s.regMis + "' (supported: regularised, sampling)");
+        j.quality = s.regQuality;
         return makeWith(s, reg::Jg19(j));
     }
     throw std::invalid_argument("unknown regulariser '" + s.regularizer + "' (supported: none, jg19)");

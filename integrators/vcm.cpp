@@ -82,7 +82,6 @@ public:
     double regularisationTau() const override { return regularisationTauOf(reg_); }
 
     void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) override {
-        reg_.beginIteration(uint64_t(pass) + 1);
         const Camera& cam = scene.camera();
         const size_t nPaths = size_t(cam.width()) * cam.height();
         if (pass == 0 && !settings_.strategyImages.empty())
@@ -92,6 +91,7 @@ public:
         radius_ = r0 * std::pow(float(pass + 1), 0.5f * (settings_.radiusAlpha - 1.f));
         cfg_.mergeArea = kPi * radius_ * radius_;
         cfg_.lightPaths = float(nPaths);
+        reg_.beginIteration(uint64_t(pass) + 1, scene, cfg_);  // (before the walks)
 
         // (1) Light subpaths in fixed chunks; chunk order makes the store and the splats deterministic.
         constexpr size_t kChunk = 1024;

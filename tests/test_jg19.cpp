@@ -94,7 +94,9 @@ struct BruteForce {
         const PathVertex& v = *x[j];
         const SurfaceBsdf b(v.bxdf, v.shading, v.ng);
         const Vec3 wo = dir(j, j + 1), wi = dir(j, j - 1);  // (either order: the ratio is symmetric)
-        const Color p = b.eval(wo, wi, kRadianceContext).f, h = b.eval(wo, wi, jg.context({}, End::Camera)).f;
+        RegularizationRequest request;
+        request.tau = jg.tau();
+        const Color p = b.eval(wo, wi, kRadianceContext).f, h = b.eval(wo, wi, BsdfContext(TransportMode::Radiance, request)).f;
         plain = double(p.x) + p.y + p.z;
         hat = double(h.x) + h.y + h.z;
     }
@@ -188,6 +190,7 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
         js.tau0 = 30.0;
         js.schedule = reg::Schedule::Fixed;
         js.mis = regularisedMis ? reg::MisDensities::Regularised : reg::MisDensities::Sampling;
+        js.quality = false;  // every technique at its own ends: Eq. 13 as Sec. 3.3 states it
         const reg::Jg19 jg(js);
         const PathVertex cam = cameraEndpoint(scene, jg);
         for (bool merging : {false, true}) {

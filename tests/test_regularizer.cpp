@@ -67,8 +67,8 @@ bool samePdfs(const PathPdfs& a, const PathPdfs& b) {
 }  // namespace
 
 TEST_CASE("regulariser seam: per-subpath state is carried on every vertex", "[regularizer]") {
-    // The state: two floats at the end of the record (152 bytes).
-    static_assert(sizeof(PathVertex) == 152);
+    // The state: five floats at the end of the record (160 bytes).
+    static_assert(sizeof(PathVertex) == 160);
     Scene scene(testScene());
     WalkStats ws;
     const CountingState counting;

@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
                    "BPT/VCM/LT/PPM: write each technique's weighted contribution (s_t.exr, merge_s.exr) to this directory");
     app.add_option("--pt-strategy", ptStrategy, "PT techniques: mis (default), nee, bsdf")
         ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
-    std::string regularizer, regSchedule, regMis;
+    std::string regularizer, regSchedule, regMis, regQuality;
     double regTau = -1.0;
     app.add_option("--reg", regularizer, "Path-space regulariser: none (default), jg19 (overrides the scene's)")
         ->check(CLI::IsMember({"none", "jg19"}));
@@ -68,6 +68,11 @@ int main(int argc, char** argv) {
     app.add_option("--reg-mis", regMis,
                    "JG19 MIS densities: regularised (default; Eq. 13) or sampling (the naive weights, JG19 Fig. 3a)")
         ->check(CLI::IsMember({"regularised", "sampling"}));
+    app.add_option("--reg-quality", regQuality,
+                   "JG19 sampler quality heuristic (Eqs. 17-18): on (default; a path an unbiased technique samples "
+                   "well is not regularised, the others at one connection chosen per path) or off (every technique "
+                   "at its own ends: counts light twice where an unbiased technique also reaches it)")
+        ->check(CLI::IsMember({"on", "off"}));
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
     app.footer("Exit codes: 0 success, 1 bad command line, 2 bad scene, 3 output not written, 4 runtime error.");
@@ -127,9 +132,10 @@ int main(int argc, char** argv) {
     settings.regTau = regTau > 0.0 ? regTau : desc.integrator.regTau;
     settings.regSchedule = !regSchedule.empty() ? regSchedule : desc.integrator.regSchedule;
     settings.regMis = !regMis.empty() ? regMis : desc.integrator.regMis;
+    settings.regQuality = !regQuality.empty() ? regQuality == "on" : desc.integrator.regQuality;
 
-    if (settings.regularizer == "jg19")
-        fmt::print(stderr, "warning: --reg jg19 runs without its quality heuristic (not implemented yet, issue 13): "
+    if (settings.regularizer == "jg19" && !settings.regQuality)
+        fmt::print(stderr, "warning: --reg jg19 --reg-quality off regularises every technique at its own ends: "
                            "light that an unbiased technique also reaches through a smooth or very glossy surface is "
                            "counted twice, sharp and blurred (BPT on cornell-box-point-in-glass: +71% on the floor)\n");
     try {
@@ -203,6 +209,7 @@ int main(int argc, char** argv) {
             j["reg_tau0"] = settings.regTau > 0.0 ? settings.regTau : regTauDefault(settings.integrator);
             j["reg_schedule"] = settings.regSchedule;
             j["reg_mis"] = settings.regMis;
+            j["reg_quality"] = settings.regQuality;
             j["reg_tau_last"] = stats.tau;
             j["contributions"] = stats.contributions;
             j["regularised_contributions"] = stats.regularisedContributions;

@@ -1,5 +1,6 @@
 #include "integrators/transport/jg19.h"
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -11,12 +12,45 @@ namespace lt::reg {
 Jg19::Jg19(const Jg19Settings& settings) : settings_(settings) {
     if (!(settings.tau0 > 1.0 / (2.0 * kPi)))
         throw std::invalid_argument("JG19: tau must exceed 1/(2 pi) = 0.159, got " + std::to_string(settings.tau0));
-    beginIteration(1);
+    setIteration(1);
 }
 
-void Jg19::beginIteration(uint64_t n) {
+void Jg19::setIteration(uint64_t n) {
     const double tau = settings_.schedule == Schedule::Consistent ? consistentTau(settings_.tau0, n) : settings_.tau0;
     radiance_.reg.tau = importance_.reg.tau = float(tau);  // (beyond FLT_MAX: +inf, no regularisation)
+}
+
+void Jg19::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) {
+    setIteration(n);
+    const Camera& cam = scene.camera();
+    cameraBound_ = cam.directionPdf(cam.forward()).value;  // the importance's maximum, at the image centre
+    set_ = cfg.set;
+    merging_ = cfg.merging;
+    mergeDensity_ = double(cfg.mergeArea) * double(cfg.lightPaths);
+}
+
+float Jg19::lightBound(const Light& light) {
+    switch (light.type) {
+        case LightType::Area: return kInvPi;  // cosine emission
+        case LightType::Point:
+        case LightType::Constant: return kUniformSpherePdf;
+        case LightType::Spot: return 1.f / coneSolidAngle(light.cutoff);
+        case LightType::Directional: return kInvPi;  // (a delta direction that NEE samples exactly: as an area light)
+    }
+    return kInvPi;
+}
+
+void Jg19::surfaceBounds(const PathVertex& v, float& plain, float& regularised) const {
+    if (!v.bxdf || v.infinite) {
+        plain = regularised = 0.f;
+        return;
+    }
+    if (const Lambert* l = v.bxdf->lambert()) {
+        plain = regularised = maxComp(l->f);
+        return;
+    }
+    plain = v.bxdf->valueBound(kRadianceContext);
+    regularised = v.bxdf->valueBound(radiance_);
 }
 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {
@@ -42,6 +76,7 @@ struct PathView {
         else lightEnd = t.s - 1, cameraEnd = t.s;
     }
     bool inner(int j) const { return j >= 1 && j <= n - 2; }  // x_0, x_{n-1}: the endpoints
+    bool isEnd(int j) const { return j < 0 || j == lightEnd || j == cameraEnd; }  // (-1: none, always)
     const PathVertex& vertex(int j) const { return j < lightCount ? tech.y[j] : tech.z[n - 1 - j]; }
     float ratio(int j) const {
         if (j == lightEnd) return tech.ratioLight;
@@ -50,9 +85,101 @@ struct PathView {
     }
 };
 
+int pathVertexCount(const Technique& t) { return t.photon ? t.s - 1 + t.t : t.s + t.t; }
+
 }  // namespace
 
+bool Jg19::select(Technique& tech) const {
+    tech.regularised[0] = tech.regularised[1] = -1;
+    const PathView path(tech, pathVertexCount(tech));
+    if (!settings_.quality) {  // (3): every technique at its own ends
+        tech.regularised[0] = path.lightEnd;
+        tech.regularised[1] = path.cameraEnd;
+        return true;
+    }
+    // Nothing the request changes on this path: unregularised (the common case, O(1)).
+    float changeable = tech.t >= 1 ? tech.z[tech.t - 1].regState.changeable : 0.f;
+    if (path.lightCount >= 1) {
+        if (!tech.y) throw std::logic_error("JG19: a merge needs the light subpath");
+        changeable += tech.y[path.lightCount - 1].regState.changeable;
+    }
+    if (changeable == 0.f) return true;
+
+    const int n = path.n;
+    // Segment lengths d_j = |x_j x_{j+1}| (a segment to a vertex at infinity: left out of d_path,
+    // and its connection compared without the distance factor) and d_path (Eq. 17).
+    std::array<double, kMaxPathVertices> d;
+    double dPath = 0.0;
+    for (int j = 0; j + 1 < n; ++j) {
+        const PathVertex &a = path.vertex(j), &b = path.vertex(j + 1);
+        d[j] = a.infinite || b.infinite ? kInf : double(glm::length(a.p - b.p));
+        if (std::isfinite(d[j])) dPath += d[j];
+    }
+    auto bound = [&](int j, bool reg) -> double {
+        const PathVertex& v = path.vertex(j);
+        if (j == 0 && tech.s == 0) return lightBound(*v.light);  // the emitter a camera walk hit
+        return reg ? v.regState.rhoBarReg : v.regState.rhoBar;
+    };
+    // The connection term of Eq. 17 (q's quantity) for bounds ra, rb over segment length dj.
+    auto connectionTerm = [&](double ra, double rb, double dj) {
+        if (ra == 0.0 || rb == 0.0) return 0.0;
+        const double t = ra * rb;
+        return std::isfinite(dj) && dj > 0.0 && dPath > 0.0 ? t * sqr(dPath / dj) : t;
+    };
+    double q = kInf, best = kInf, bestLength = -1.0;
+    int bestA = -1, bestB = -1;
+    auto consider = [&](double plain, double reg, double length, int a, int b) {
+        q = std::min(q, plain);
+        if (reg < best || (reg == best && length > bestLength)) best = reg, bestLength = length, bestA = a, bestB = b;
+    };
+    for (int k = 1; k < n; ++k) {  // connection technique k: x_{k-1} - x_k
+        if (!allowsTechnique(set_, k, n - k)) continue;
+        consider(connectionTerm(bound(k - 1, false), bound(k, false), d[k - 1]),
+                 connectionTerm(bound(k - 1, true), bound(k, true), d[k - 1]), d[k - 1], k - 1, k);
+    }
+    // The emitter hit (ours; Eq. 17 has connections only): its one random choice is the direction
+    // sampled at x_k, the first vertex from the light that is not a delta; it hits with probability
+    // P ~ rho_bar_k A |cos theta_L| / D^2 (D: the length unfolded through the deltas x_{k-1}..x_1),
+    // and its relative variance ~ 1 / P plays the connection term's part. Without it a light seen
+    // in a mirror (E S L, which the camera walk samples as well as a pixel) would be blurred.
+    if (allowsTechnique(set_, 0, n) && n >= 2) {
+        const PathVertex& x0 = path.vertex(0);
+        double hitProbability = 0.0;
+        if (x0.light && x0.light->type == LightType::Constant) {
+            hitProbability = 1.0;
+        } else if (x0.light && x0.light->type == LightType::Area && std::isfinite(d[0]) && d[0] > 0.0) {
+            double D = d[0];
+            int k = 1;
+            while (k < n - 1 && std::isinf(bound(k, false)) && std::isfinite(d[k])) D += d[k++];
+            const Vec3 toX1 = glm::normalize(path.vertex(1).p - x0.p);
+            const double cosL = std::abs(glm::dot(x0.ng, toX1));
+            hitProbability = std::min(1.0, bound(k, false) * x0.light->area * cosL / sqr(D));
+        }
+        const double term = hitProbability > 0.0 ? 1.0 / hitProbability : kInf;
+        consider(term, term, -1.0, -1, -1);
+    }
+    if (merging_ && mergeDensity_ > 0.0)
+        for (int i = 1; i + 1 < n; ++i) {  // the merge at x_i (photons lie on non-delta surfaces)
+            if (!path.vertex(i).connectible()) continue;
+            const double scale = sqr(dPath) / mergeDensity_;
+            consider(bound(i, false) * scale, bound(i, true) * scale, 0.0, i, -1);
+        }
+    const double tau = double(radiance_.reg.tau);
+    // Eq. 18: a good unbiased sampler (or none better with the bound): no regularisation. A
+    // technique connecting at a vertex that stays a delta then has nothing to add.
+    if (q < tau * tau || !(best < q)) {
+        for (int j : {path.lightEnd, path.cameraEnd})
+            if (j >= 0 && !path.vertex(j).connectible()) return false;
+        return true;
+    }
+    int m = 0;
+    for (int j : {bestA, bestB})
+        if (j >= 0 && bound(j, true) < bound(j, false)) tech.regularised[m++] = j;
+    return path.isEnd(tech.regularised[0]) && path.isEnd(tech.regularised[1]);
+}
+
 bool Jg19::perTechnique(const Technique& tech) const {
+    if (settings_.quality) return tech.regularised[0] >= 0 || tech.regularised[1] >= 0;
     if (tech.ratioLight != 1.f || tech.ratioCamera != 1.f) return true;
     // accumulated counts the vertices before its own on its subpath: y[s-1] (a connection's light
     // end, or the photon's vertex y[i] of a merge, s = i + 1) and z[t-1] cover the rest of the path.
@@ -63,6 +190,25 @@ bool Jg19::perTechnique(const Technique& tech) const {
 void Jg19::densities(const Technique& tech, PathPdfs& P) const {
     const PathView path(tech, P.n);
     const int n = P.n;
+    if (settings_.quality) {
+        // (2): one integrand for the path; the techniques whose ends contain the regularised
+        // vertices compete with their sampling densities, the others cannot produce it.
+        const int r0 = tech.regularised[0], r1 = tech.regularised[1];
+        for (int j : {r0, r1})
+            if (j >= 0) P.delta[j] = false;  // a smooth vertex made rough: a connection end now
+        auto contains = [&](int a, int b) {
+            for (int j : {r0, r1})
+                if (j >= 0 && j != a && j != b) return false;
+            return true;
+        };
+        P.connectionScale[0] = 0.f;  // (the emitter hit walks through every vertex)
+        for (int k = 1; k < n; ++k) P.connectionScale[k] = contains(k - 1, k) ? 1.f : 0.f;
+        P.connectionScale[n] = 0.f;
+        for (int i = 0; i < n; ++i)
+            P.mergeScale[i] = path.inner(i) && path.vertex(i).connectible() && contains(i, -1) ? 1.f : 0.f;
+        P.regularised = true;  // (select let only techniques containing them through)
+        return;
+    }
     const bool regularisedMis = settings_.mis == MisDensities::Regularised;
     // The base's singular ends: every competitor must connect (merge) there too.
     int singular[2], nSingular = 0;

@@ -9,7 +9,31 @@
 //     dielectrics become rough GGX lobes there, so a connection may end on them (connectible).
 //     The walks sample and evaluate the materials' own BSDFs (Sec. 3). tau_n: Eq. 16 with n the
 //     iteration (consistent schedule) or tau_0 throughout (fixed).
-// (2) MIS (Sec. 3.3, Eq. 13). Technique k's density is p_hat_k = p_k prod_{x in C_k} rho_hat(x) /
+// (2) Which vertices, per path (Sec. 3.5.1, Eqs. 17-18: the sampler quality heuristic, on by
+//     default). Regularising every technique at its own connection ends, as Secs. 3.1-3.3 read
+//     alone, makes each technique estimate its own integrand; Eq. 13 then weights them so that
+//     where an unbiased technique reaches light through a delta or very glossy vertex and
+//     another technique reaches the same light through its blurred version, both keep weight
+//     ~1 and the light is counted twice (measured: BPT on cornell-box-point-in-glass, floor
+//     +71% against VCM; PT on a mirror-sphere box, +5.2% with a sharp and a blurred reflection).
+//     With the heuristic the choice is a function of the path alone, made once for all the
+//     techniques that can produce it (select):
+//       q = min_k rho_bar_k rho_bar_{k+1} (d_k / d_path)^-2 over the running integrator's
+//       connections k (Eq. 17; rho_bar of an endpoint: its directional density's maximum, the
+//       camera's importance at the image centre, 1/pi for an area light, 1/(4 pi) for a point);
+//       ours for VCM: the merge at x_i enters as rho_bar_i d_path^2 / (N pi r^2) (one BSDF and the
+//       kernel over N light paths in place of the second BSDF and 1/d^2).
+//       q < tau^2: an unbiased sampler is good enough, nothing is regularised (Eq. 18, tau' = inf).
+//       Otherwise the technique whose connection term is smallest with the bounds under tau
+//       (ties: the longer connection) is the one regularised, at those of its ends the request
+//       changes (KD13's selective choice of one estimator per path, with JG19's measure).
+//     Every technique then evaluates the same integrand on this path: those whose connection
+//     ends contain the regularised vertices compete with their sampling densities (Eq. 13's
+//     rho_hat / rho factors are common to all of them and cancel), the others (walking through a
+//     regularised vertex, or hitting the emitter) have weight 0 there. Unbiased where no vertex
+//     is regularised; the regularised share vanishes as tau_n grows.
+// (3) MIS without the heuristic (--reg-quality off: every technique regularised at its own ends,
+//     Sec. 3.3, Eq. 13). Technique k's density is p_hat_k = p_k prod_{x in C_k} rho_hat(x) /
 //     rho(x), C_k its connection ends (the merge at x_i: {x_i}). rho_hat / rho of a vertex is the
 //     same pair of directions in every technique that connects there (its two path neighbours),
 //     so it is computed once per vertex: by the walk when it extends past the vertex
@@ -24,9 +48,10 @@
 //     those whose connection ends contain exactly the base's singular vertices; between them the
 //     common rho_hat cancels (one tau per iteration).
 //     MisDensities::Sampling (--reg-mis sampling) keeps the sampling densities p_k (JG19 Fig. 3a:
-//     the naive weights), with the same rule for singular vertices.
-// Not yet here (issue 13): the quality and diffusion heuristics (Eqs. 17-21), merges on delta
-// surfaces (photons are stored on non-delta surfaces only).
+//     the naive weights), with the same rule for singular vertices. This mode counts light twice
+//     as described in (2); it is kept for the paper's comparisons.
+// Not yet here (issue 13): the diffusion heuristic (Eqs. 19-21), merges on delta surfaces
+// (photons are stored on non-delta surfaces only).
 #pragma once
 #include <cstdint>
 #include "integrators/transport/path.h"
@@ -39,7 +64,8 @@ enum class MisDensities { Regularised, Sampling };
 struct Jg19Settings {
     double tau0 = 30.0;  // > 1 / (2 pi)
     Schedule schedule = Schedule::Consistent;
-    MisDensities mis = MisDensities::Regularised;
+    MisDensities mis = MisDensities::Regularised;  // (without the quality heuristic only: (3))
+    bool quality = true;                           // the sampler quality heuristic, (2)
 };
 
 class Jg19 {
@@ -47,28 +73,48 @@ public:
     // Throws std::invalid_argument for tau0 <= 1 / (2 pi) or NaN.
     explicit Jg19(const Jg19Settings& settings);
     const Jg19Settings& settings() const { return settings_; }
-    // tau_n for iteration n >= 1 (Eq. 16, or tau0 for the fixed schedule).
-    void beginIteration(uint64_t n);
+    // tau_n for iteration n >= 1 (Eq. 16, or tau0 for the fixed schedule); the camera's bound
+    // and the integrator's techniques for the quality heuristic.
+    void beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg);
+    // Only tau_n (the constructor: n = 1; tests that build paths by hand).
+    void setIteration(uint64_t n);
     float tau() const { return radiance_.reg.tau; }
 
-    // (1)
-    const BsdfContext& context(const Technique&, End end) const {
-        return end == End::Light ? importance_ : radiance_;
+    // (1) The request at the vertices select() chose.
+    const BsdfContext& context(const Technique& tech, End end) const {
+        const int j = end == End::Light || tech.photon ? tech.s - 1 : tech.s;  // the end's x index
+        const bool on = j >= 0 && (tech.regularised[0] == j || tech.regularised[1] == j);
+        if (end == End::Light) return on ? importance_ : kImportanceContext;
+        return on ? radiance_ : kRadianceContext;
     }
-    // (2)
+    // (2), (5)
+    bool select(Technique& tech) const;
+    // (2), (3)
     static constexpr bool kPerTechnique = true;
     bool perTechnique(const Technique& tech) const;
     void densities(const Technique& tech, PathPdfs& pdfs) const;
-    // (3) SubpathState: ratio = rho_hat / rho at the vertex (see above; 1 at endpoints and where
-    // nothing changes), accumulated = the number of vertices before this one on its subpath
-    // whose ratio is finite and not 1. (A singular vertex the walk passed through changes no
-    // weight: every technique regularising it has factor 0, as its delta flag says anyway.)
-    void start(PathVertex& v) const { v.regState = SubpathState{}; }
+    // SubpathState: rhoBar, rhoBarReg and changeable for the heuristic; without it, ratio =
+    // rho_hat / rho at the vertex (see (3); 1 at endpoints and where nothing changes) and
+    // accumulated = the number of vertices before this one on its subpath whose ratio is finite
+    // and not 1. (A singular vertex the walk passed through changes no weight: every technique
+    // regularising it has factor 0, as its delta flag says anyway.)
+    void start(PathVertex& v) const {
+        v.regState = SubpathState{};
+        v.regState.rhoBar = v.regState.rhoBarReg = endpointBound(v);
+    }
     void extend(PathVertex& v, PathVertex& prev) const {
+        SubpathState& st = v.regState;
+        st.ratio = 1.f;
+        if (settings_.quality) {
+            st.accumulated = 0.f;
+            surfaceBounds(v, st.rhoBar, st.rhoBarReg);
+            st.changeable = prev.regState.changeable + (st.rhoBarReg < st.rhoBar ? 1.f : 0.f);
+            return;
+        }
         const float r = ratioAt(prev, -v.wo);
         prev.regState.ratio = r;
-        v.regState.ratio = 1.f;
-        v.regState.accumulated = prev.regState.accumulated + (r != 1.f && r < kInf ? 1.f : 0.f);
+        st.accumulated = prev.regState.accumulated + (r != 1.f && r < kInf ? 1.f : 0.f);
+        st.rhoBar = st.rhoBarReg = st.changeable = 0.f;
     }
     // (4) Any surface vertex with a BSDF that is not still a delta under tau_n.
     bool connectible(const PathVertex& v) const {
@@ -79,10 +125,23 @@ public:
     // rho_hat / rho of v's BSDF between v.wo and wi (1 where nothing changes, +inf where rho is a
     // delta or 0 and rho_hat is not).
     float ratioAt(const PathVertex& v, const Vec3& wi) const;
+    // rho_bar of a light's directional emission (see (2)), and of a surface vertex's BSDF without
+    // and with the iteration's request (0 without a BSDF).
+    static float lightBound(const Light& light);
+    void surfaceBounds(const PathVertex& v, float& plain, float& regularised) const;
 
 private:
     Jg19Settings settings_;
+    float endpointBound(const PathVertex& v) const {
+        if (v.kind == VertexKind::Camera) return cameraBound_;
+        return v.light ? lightBound(*v.light) : 0.f;
+    }
     BsdfContext radiance_{TransportMode::Radiance}, importance_{TransportMode::Importance};
+    // The quality heuristic's view of the running integrator (beginIteration).
+    float cameraBound_ = 1.f;
+    TechniqueSet set_ = TechniqueSet::Bidirectional;
+    bool merging_ = false;
+    double mergeDensity_ = 0.0;  // N pi r^2
 };
 
 }  // namespace lt::reg

@@ -170,6 +170,7 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     if (!nee && !toCamera && (b.kind != VertexKind::Surface || b.infinite || !reg.connectible(b))) return false;
     if (aSurface && !reg.connectible(a)) return false;
     if (toCamera && a.infinite) return false;
+    if (!reg.select(tech)) return false;  // regularizer.h (5)
     Vec3 d = a.p - b.p;
     const float abDist2 = glm::dot(d, d);  // the segment's squared length, for the densities
     if (!(abDist2 > 0.f)) return false;

@@ -194,6 +194,8 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
     if (!v.light || t < 2) return Color(0.f);
     Color Le = v.light->Le(v.ng, v.wo);
     if (isBlack(Le)) return Color(0.f);
+    Technique tech{nullptr, 0, z, t};
+    if (!reg.select(tech)) return Color(0.f);  // regularizer.h (5)
     gatherCameraPdfs(z, t, 0, pdfs, readLimit);
     pdfs.belowBase = pdfs.aboveBase = -1.0;
     float sel = scene.lightSelectionProb(v.light);
@@ -203,7 +205,6 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
     // light travels along v.wo, over the segment that arrived at v
     if (readLimit >= 1)
         pdfs.fromLight[1] = detail::emissionDensity(scene, v, v.wo, z[t - 2], sqr(v.segmentLength)).value;
-    const Technique tech{nullptr, 0, z, t};
     detail::techniqueDensities(reg, tech, pdfs, detail::needsPerTechnique(reg, tech));
     return v.beta * Le;
 }
@@ -216,6 +217,7 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
     if (i < 1 || t < 2 || !zv.connectible() || zv.infinite) return false;
     if (glm::dot(ph.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
     Technique tech{y, i + 1, z, t, &ph};
+    if (!reg.select(tech)) return false;  // regularizer.h (5)
     BsdfEval ez = detail::evalAtConnection(zv, ph.wo, reg.context(tech, End::Camera), tech.ratioCamera);
     if (isBlack(ez.f)) return false;
     c.contribution = zv.beta * ez.f * ph.beta;

@@ -49,7 +49,18 @@
 //        connectible(v): may a connection use v as an end (None: v.connectible(), no delta
 //        vertex; JG19 makes smooth conductors and dielectrics rough there, so every surface
 //        vertex with a BSDF may). Merges keep v.connectible(): photons lie on non-delta surfaces.
-//        beginIteration(n): before iteration (pass) n >= 1 starts, walks included (JG19's tau_n).
+//        beginIteration(n, scene, cfg): before iteration (pass) n >= 1 starts, walks included
+//        (JG19's tau_n), with the scene and the running integrator's techniques (cfg: its
+//        technique set, merging, and this iteration's merge area and light path count).
+//  (5) Which vertices of the path are regularised.
+//        select(tech): the first thing connect, emitterHit and merge do, before any evaluation.
+//        Writes tech.regularised, the x indices (path.h) of the path's vertices evaluated with the
+//        request; context(tech, end) is the request's context only at those. A policy whose
+//        choice is a function of the path (the same for every technique that can produce it;
+//        JG19's quality heuristic) makes every technique estimate one integrand per path, so the
+//        MIS weights of the techniques that can sample it sum to one with no light counted twice.
+//        Returns false when the technique's weight on this path is 0 (the routine then returns
+//        nothing, before its shadow ray). None: regularises nothing, returns true.
 #pragma once
 #include "bsdf/bsdf.h"
 
@@ -58,15 +69,22 @@ namespace lt {
 struct PathVertex;
 struct PathPdfs;
 struct Photon;
+struct MisConfig;
+class Scene;
 
-// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Two floats: the
-// record is 152 bytes with them (144 with one, which fit the tail padding). A regulariser that
+// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Five floats: the
+// record is 160 bytes with them (144 with one, which fit the tail padding). A regulariser that
 // needs more (JG19's 2D diffusion) widens it here.
 struct SubpathState {
     float accumulated = 0.f;  // (JG19: the number of vertices before this one whose ratio is finite, not 1)
     // JG19: rho_hat / rho at this vertex, between its two neighbours on its own subpath (written
     // when the walk extends past it; +inf when rho is 0 or a delta: a "singular" vertex).
     float ratio = 1.f;
+    // JG19's quality heuristic: rho_bar of this vertex (its BSDF's bound, Bxdf::valueBound, or an
+    // endpoint's bound on its directional density), without and with the iteration's request,
+    // and the number of vertices of the subpath up to this one where the two differ.
+    float rhoBar = 0.f, rhoBarReg = 0.f;
+    float changeable = 0.f;
 };
 
 // The vertices of the technique that connect, emitterHit or merge evaluates.
@@ -80,6 +98,9 @@ struct Technique {
     // (camera; for a merge, its camera vertex), as the routine evaluated them (1 without a
     // request; +inf when rho is 0 or a delta). Written by connect and merge before densities().
     float ratioLight = 1.f, ratioCamera = 1.f;
+    // The x indices (path.h: x_0 the light end) of the vertices of this path that the policy
+    // regularises (regularizer.h (5); -1: none), written by select().
+    int regularised[2] = {-1, -1};
 };
 
 // The two ends of a technique's connection.
@@ -102,7 +123,9 @@ struct None {
     void extend(PathVertex&, PathVertex&) const {}
     // (4) Connections at non-delta vertices only; nothing depends on the iteration.
     bool connectible(const PathVertex& v) const;
-    void beginIteration(uint64_t) {}
+    void beginIteration(uint64_t, const Scene&, const MisConfig&) {}
+    // (5) Nothing regularised; every technique contributes.
+    bool select(Technique&) const { return true; }
 };
 // The unregularised policy as a value, for callers that pass it directly (the tests).
 inline constexpr None kNone{};
