@@ -221,7 +221,7 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
                                           z.data(), ws);
                 auto check = [&](const PathPdfs& P, std::vector<const PathVertex*> xs, int s, int mergeAt,
                                  const PathVertex* mergeLight) {
-                    BruteForce bf{jg, std::move(xs), P, cfg, regularisedMis, mergeAt, mergeLight};
+                    BruteForce bf{jg, std::move(xs), P, cfg, regularisedMis, mergeAt, mergeLight, false, {}};
                     const double ours = mergeAt >= 0 ? misWeightMerge(P, mergeAt, cfg) : misWeight(P, s, cfg);
                     const double ref = bf.weight(s);
                     INFO("path " << i << " s=" << s << " merge " << mergeAt << " n=" << bf.n() << " ours " << ours
@@ -354,17 +354,21 @@ struct HandPath {
     // The technique with s light vertices (s = 0: the emitter hit, x_0 on the light's surface).
     Technique technique(const reg::Jg19& jg, int s) {
         const int n = int(x.size());
+        // (wo, segmentLength and pathLength as PathVertex::init writes them.)
+        auto link = [&](PathVertex& v, PathVertex* prev) {
+            v.wo = prev ? glm::normalize(prev->p - v.p) : Vec3(0.f);
+            v.segmentLength = prev ? glm::length(prev->p - v.p) : 0.f;
+            v.pathLength = prev ? prev->pathLength + v.segmentLength : 0.f;
+            if (prev) jg.extend(v, *prev);
+            else jg.start(v);
+        };
         for (int k = 0; k < s; ++k) {
             y[k] = x[k];
-            y[k].wo = k ? glm::normalize(x[k - 1].p - x[k].p) : Vec3(0.f);
-            if (k == 0) jg.start(y[0]);
-            else jg.extend(y[k], y[k - 1]);
+            link(y[k], k ? &y[k - 1] : nullptr);
         }
         for (int k = 0; k < n - s; ++k) {
             z[k] = x[n - 1 - k];
-            z[k].wo = k ? glm::normalize(x[n - k].p - x[n - 1 - k].p) : Vec3(0.f);
-            if (k == 0) jg.start(z[0]);
-            else jg.extend(z[k], z[k - 1]);
+            link(z[k], k ? &z[k - 1] : nullptr);
         }
         if (s == 0) z[n - 1].kind = VertexKind::Surface;  // the camera walk's emitter hit
         return Technique{s ? y.data() : nullptr, s, z.data(), n - s};
@@ -617,9 +621,7 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                 std::vector<const PathVertex*> xs;
                 for (int k = 0; k < s; ++k) xs.push_back(&y[k]);
                 for (int k = t - 1; k >= 0; --k) xs.push_back(&zz[k]);
-                BruteForce bf{jg, std::move(xs), c.pdfs, cfg, false};
-                bf.quality = true;
-                bf.R = R;
+                BruteForce bf{jg, std::move(xs), c.pdfs, cfg, false, -1, nullptr, true, R};
                 const double ours = misWeight(c.pdfs, s, cfg), ref = bf.weight(s);
                 INFO("path " << i << " s=" << s << " t=" << t << " ours " << ours << " brute force " << ref);
                 CHECK(std::abs(ours - ref) <= 2e-3);

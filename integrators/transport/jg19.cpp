@@ -1,6 +1,5 @@
 #include "integrators/transport/jg19.h"
 
-#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -106,15 +105,27 @@ bool Jg19::select(Technique& tech) const {
     if (changeable == 0.f) return true;
 
     const int n = path.n;
-    // Segment lengths d_j = |x_j x_{j+1}| (a segment to a vertex at infinity: left out of d_path,
-    // and its connection compared without the distance factor) and d_path (Eq. 17).
-    std::array<double, kMaxPathVertices> d;
-    double dPath = 0.0;
-    for (int j = 0; j + 1 < n; ++j) {
-        const PathVertex &a = path.vertex(j), &b = path.vertex(j + 1);
-        d[j] = a.infinite || b.infinite ? kInf : double(glm::length(a.p - b.p));
-        if (std::isfinite(d[j])) dPath += d[j];
+    // Segment lengths d_j = |x_j x_{j+1}| from the walks' records (the one joining the two
+    // subpaths measured here), and d_path (Eq. 17) from their running sums. A segment to a vertex
+    // at infinity (or the light walk's first segment from a light at infinity, recorded as 0) is
+    // left out of d_path, and its connection compared without the distance factor.
+    const int join = path.lightCount - 1;  // the segment x_join - x_{join+1} joins the subpaths
+    double joinLength = 0.0;
+    if (join >= 0) {
+        const PathVertex &a = path.vertex(join), &b = path.vertex(join + 1);
+        joinLength = a.infinite || b.infinite ? kInf : double(glm::length(a.p - b.p));
     }
+    auto segment = [&](int j) -> double {
+        if (j == join) return joinLength;
+        return j < join ? double(tech.y[j + 1].segmentLength) : double(tech.z[n - 1 - j].segmentLength);
+    };
+    auto runningLength = [](const PathVertex& v, const PathVertex* before) -> double {
+        if (v.infinite) return before ? double(before->pathLength) : 0.0;  // (the camera walk's escape)
+        return double(v.pathLength);
+    };
+    double dPath = std::isfinite(joinLength) ? joinLength : 0.0;
+    if (tech.t >= 1) dPath += runningLength(tech.z[tech.t - 1], tech.t >= 2 ? &tech.z[tech.t - 2] : nullptr);
+    if (path.lightCount >= 1) dPath += double(tech.y[path.lightCount - 1].pathLength);
     auto bound = [&](int j, bool reg) -> double {
         const PathVertex& v = path.vertex(j);
         if (j == 0 && tech.s == 0) return lightBound(*v.light);  // the emitter a camera walk hit
@@ -134,8 +145,9 @@ bool Jg19::select(Technique& tech) const {
     };
     for (int k = 1; k < n; ++k) {  // connection technique k: x_{k-1} - x_k
         if (!allowsTechnique(set_, k, n - k)) continue;
-        consider(connectionTerm(bound(k - 1, false), bound(k, false), d[k - 1]),
-                 connectionTerm(bound(k - 1, true), bound(k, true), d[k - 1]), d[k - 1], k - 1, k);
+        const double dk = segment(k - 1);
+        consider(connectionTerm(bound(k - 1, false), bound(k, false), dk),
+                 connectionTerm(bound(k - 1, true), bound(k, true), dk), dk, k - 1, k);
     }
     // The emitter hit (ours; Eq. 17 has connections only): its one random choice is the direction
     // sampled at x_k, the first vertex from the light that is not a delta; it hits with probability
@@ -147,10 +159,10 @@ bool Jg19::select(Technique& tech) const {
         double hitProbability = 0.0;
         if (x0.light && x0.light->type == LightType::Constant) {
             hitProbability = 1.0;
-        } else if (x0.light && x0.light->type == LightType::Area && std::isfinite(d[0]) && d[0] > 0.0) {
-            double D = d[0];
+        } else if (x0.light && x0.light->type == LightType::Area && std::isfinite(segment(0)) && segment(0) > 0.0) {
+            double D = segment(0);
             int k = 1;
-            while (k < n - 1 && std::isinf(bound(k, false)) && std::isfinite(d[k])) D += d[k++];
+            while (k < n - 1 && std::isinf(bound(k, false)) && std::isfinite(segment(k))) D += segment(k++);
             const Vec3 toX1 = glm::normalize(path.vertex(1).p - x0.p);
             const double cosL = std::abs(glm::dot(x0.ng, toX1));
             hitProbability = std::min(1.0, bound(k, false) * x0.light->area * cosL / sqr(D));

@@ -158,7 +158,6 @@ inline bool sampleLightVertex(const Scene& scene, const Reg& reg, const Vec3& re
 template <ConnectEnds ends, class Reg>
 inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
                     Connection& c, WalkStats& stats, int readLimit) {
-    if constexpr (Reg::kPerTechnique) readLimit = kMaxPathVertices;  // every technique's vertices are read
     Technique tech{y, s, z, t};
     const PathVertex& a = y[s - 1];  // light side
     const PathVertex& b = z[t - 1];  // camera side

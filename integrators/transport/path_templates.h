@@ -57,7 +57,6 @@ template <class Reg>
 int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng,
                TransportMode mode, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats,
                WalkPdfs pdfs) {
-    if constexpr (Reg::kPerTechnique) pdfs = WalkPdfs::All;  // every technique's densities are read
     constexpr float kNotComputed = std::numeric_limits<float>::quiet_NaN();
     const bool allPdfs = pdfs == WalkPdfs::All;
     const BsdfContext& ctx = plainContext(mode);  // the walks sample and evaluate the materials' own BSDFs
@@ -189,7 +188,6 @@ int lightWalk(const Scene& scene, const Reg& reg, Rng& rng, int maxVertices, int
 
 template <class Reg>
 Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit) {
-    if constexpr (Reg::kPerTechnique) readLimit = kMaxPathVertices;  // every technique's vertices are read
     const PathVertex& v = z[t - 1];
     if (!v.light || t < 2) return Color(0.f);
     Color Le = v.light->Le(v.ng, v.wo);

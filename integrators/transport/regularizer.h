@@ -32,10 +32,12 @@
 //        every technique, evaluated from the path's vertices (tech gives both subpaths), into
 //        PathPdfs::connectionScale[k] and mergeScale[i] (0: the technique cannot sample the path),
 //        and the MIS sums multiply each technique's density by its factor. The fast forms that do
-//        not see every technique's vertices are bypassed then: the path tracer's limited gathers
-//        (readLimit, WalkPdfs::EmitterHits: bypassed for every path, as the walk cannot know),
-//        its closed-form weight, and the merges' prefix sums (photon.misLight, cameraSums): merge
-//        then needs the light subpath's vertices and densities.
+//        not see every technique's factor are bypassed then: the path tracer's closed-form weight
+//        and the merges' prefix sums (photon.misLight, cameraSums): merge then needs the light
+//        subpath's vertices and densities. The path tracer's limited gathers (readLimit,
+//        WalkPdfs::EmitterHits) stay: its two techniques compare x_0's densities only, whatever
+//        their factors, and a policy computes its factors from the vertices and its SubpathState,
+//        not from the densities.
 //  (3) Per-subpath state carried on the vertices.
 //        start(v): at a subpath's endpoint (camera, light, NEE light sample), after its record is
 //        written; extend(v, prev): at every vertex a walk adds, from the vertex it came from
