@@ -66,6 +66,21 @@ TEST_CASE("JG19 with a bound that changes no lobe renders bit-identically to no 
 
 namespace {
 
+// Every connection (s, t), s + t >= 3, of a light subpath y[0..ny-1] with a camera subpath
+// z[0..nz-1] (t = 1: with the camera endpoint cam) that carries something: fn(s, t, zz, c), zz the
+// camera side used.
+template <class Fn>
+void forEachConnection(const Scene& scene, const reg::Jg19& jg, const PathVertex* y, int ny, const PathVertex* z,
+                       int nz, const PathVertex& cam, WalkStats& ws, Fn&& fn) {
+    for (int s = 1; s <= ny; ++s)
+        for (int t = 1; t <= nz; ++t) {
+            if (s + t < 3) continue;
+            const PathVertex* zz = t == 1 ? &cam : z;
+            Connection c;
+            if (connect(scene, jg, y, s, zz, t, c, ws)) fn(s, t, zz, c);
+        }
+}
+
 // The brute-force weight of a technique under JG19, from the path's vertices and its gathered
 // sampling densities (tested elsewhere), with nothing of the policy's bookkeeping (the walks'
 // stored ratios, the singular-vertex rule, the delta flags): every BSDF is evaluated here at the
@@ -230,12 +245,8 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
                     worst = std::max(worst, std::abs(ours - ref));
                     ++checked;
                 };
-                for (int s = 1; s <= ny; ++s)
-                    for (int t = 1; t <= nz; ++t) {
-                        if (s + t < 3) continue;
-                        const PathVertex* zz = t == 1 ? &cam : z.data();
-                        Connection c;
-                        if (!connect(scene, jg, y.data(), s, zz, t, c, ws)) continue;
+                forEachConnection(scene, jg, y.data(), ny, z.data(), nz, cam, ws, [&](int s, int t, const PathVertex* zz,
+                                                                                      const Connection& c) {
                         std::vector<const PathVertex*> xs;
                         for (int k = 0; k < s; ++k) xs.push_back(&y[k]);
                         for (int k = t - 1; k >= 0; --k) xs.push_back(&zz[k]);
@@ -245,7 +256,7 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
                         smoothEnds += c.pdfs.regularised && ((s >= 2 && y[s - 1].deltaBsdf) ||
                                                              (t >= 2 && zz[t - 1].deltaBsdf));
                         check(c.pdfs, xs, s, -1, nullptr);
-                    }
+                    });
                 if (!merging) continue;
                 // Merges of this camera path with the light vertices of the same light walk.
                 for (int m = 1; m < ny; ++m) {
@@ -587,12 +598,8 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
         Rng rng(i, 57);
         const int ny = lightWalk(scene, jg, rng, 6, 100, y.data(), ws);
         const int nz = cameraWalk(scene, jg, Vec2(rng.uniform() * 16, rng.uniform() * 16), rng, 6, 100, z.data(), ws);
-        for (int s = 1; s <= ny; ++s)
-            for (int t = 1; t <= nz; ++t) {
-                if (s + t < 3) continue;
-                const PathVertex* zz = t == 1 ? &cam : z.data();
-                Connection c;
-                if (!connect(scene, jg, y.data(), s, zz, t, c, ws)) continue;
+        forEachConnection(scene, jg, y.data(), ny, z.data(), nz, cam, ws, [&](int s, int t, const PathVertex* zz,
+                                                                              const Connection& c) {
                 Technique own{y.data(), s, zz, t};
                 REQUIRE(jg.select(own));
                 std::vector<int> R;
@@ -627,7 +634,7 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                 CHECK(std::abs(ours - ref) <= 2e-3);
                 worst = std::max(worst, std::abs(ours - ref));
                 ++checked;
-            }
+            });
     }
     INFO(checked << " weights, " << regularisedPaths << " on regularised paths, " << splits << " splits; worst " << worst);
     CHECK(checked > 3000);
