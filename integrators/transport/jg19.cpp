@@ -75,7 +75,6 @@ struct PathView {
         else lightEnd = t.s - 1, cameraEnd = t.s;
     }
     bool inner(int j) const { return j >= 1 && j <= n - 2; }  // x_0, x_{n-1}: the endpoints
-    bool isEnd(int j) const { return j < 0 || j == lightEnd || j == cameraEnd; }  // (-1: none, always)
     const PathVertex& vertex(int j) const { return j < lightCount ? tech.y[j] : tech.z[n - 1 - j]; }
     float ratio(int j) const {
         if (j == lightEnd) return tech.ratioLight;
@@ -85,6 +84,14 @@ struct PathView {
 };
 
 int pathVertexCount(const Technique& t) { return t.photon ? t.s - 1 + t.t : t.s + t.t; }
+
+// Whether the ends a, b (x indices; -1: none) of a technique contain the vertices select() chose
+// to regularise on this path (the techniques that compete for it, jg19.h (2)).
+bool containsRegularised(const Technique& tech, int a, int b) {
+    for (int j : tech.regularised)
+        if (j >= 0 && j != a && j != b) return false;
+    return true;
+}
 
 }  // namespace
 
@@ -170,12 +177,13 @@ bool Jg19::select(Technique& tech) const {
         const double term = hitProbability > 0.0 ? 1.0 / hitProbability : kInf;
         consider(term, term, -1.0, -1, -1);
     }
-    if (merging_ && mergeDensity_ > 0.0)
+    if (merging_ && mergeDensity_ > 0.0) {
+        const double scale = sqr(dPath) / mergeDensity_;
         for (int i = 1; i + 1 < n; ++i) {  // the merge at x_i (photons lie on non-delta surfaces)
             if (!path.vertex(i).connectible()) continue;
-            const double scale = sqr(dPath) / mergeDensity_;
             consider(bound(i, false) * scale, bound(i, true) * scale, 0.0, i, -1);
         }
+    }
     const double tau = double(radiance_.reg.tau);
     // Eq. 18: a good unbiased sampler (or none better with the bound): no regularisation. A
     // technique connecting at a vertex that stays a delta then has nothing to add.
@@ -187,7 +195,7 @@ bool Jg19::select(Technique& tech) const {
     int m = 0;
     for (int j : {bestA, bestB})
         if (j >= 0 && bound(j, true) < bound(j, false)) tech.regularised[m++] = j;
-    return path.isEnd(tech.regularised[0]) && path.isEnd(tech.regularised[1]);
+    return containsRegularised(tech, path.lightEnd, path.cameraEnd);
 }
 
 bool Jg19::perTechnique(const Technique& tech) const {
@@ -205,19 +213,14 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
     if (settings_.quality) {
         // (2): one integrand for the path; the techniques whose ends contain the regularised
         // vertices compete with their sampling densities, the others cannot produce it.
-        const int r0 = tech.regularised[0], r1 = tech.regularised[1];
-        for (int j : {r0, r1})
+        for (int j : tech.regularised)
             if (j >= 0) P.delta[j] = false;  // a smooth vertex made rough: a connection end now
-        auto contains = [&](int a, int b) {
-            for (int j : {r0, r1})
-                if (j >= 0 && j != a && j != b) return false;
-            return true;
-        };
         P.connectionScale[0] = 0.f;  // (the emitter hit walks through every vertex)
-        for (int k = 1; k < n; ++k) P.connectionScale[k] = contains(k - 1, k) ? 1.f : 0.f;
+        for (int k = 1; k < n; ++k) P.connectionScale[k] = containsRegularised(tech, k - 1, k) ? 1.f : 0.f;
         P.connectionScale[n] = 0.f;
         for (int i = 0; i < n; ++i)
-            P.mergeScale[i] = path.inner(i) && path.vertex(i).connectible() && contains(i, -1) ? 1.f : 0.f;
+            P.mergeScale[i] =
+                path.inner(i) && path.vertex(i).connectible() && containsRegularised(tech, i, -1) ? 1.f : 0.f;
         P.regularised = true;  // (select let only techniques containing them through)
         return;
     }
