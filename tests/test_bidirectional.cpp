@@ -205,7 +205,7 @@ PathPdfs bruteForcePdfs(const Scene& scene, const std::vector<PathVertex>& x) {
 
 }  // namespace
 
-TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation; weights sum to one", "[bpt][mis]") {
+TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation and weights sum to one", "[bpt][mis]") {
     SceneDesc d = cornellBox(8, ggx());
     d.meshes.push_back(smoothSphere(Vec3(-0.45f, -0.65f, 0.2f), 0.3f, 5, 7, 0));
     Scene scene(d);

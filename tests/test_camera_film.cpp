@@ -8,7 +8,7 @@
 
 using namespace lt;
 
-TEST_CASE("camera: raster position inverts ray generation; Mitsuba axes", "[camera]") {
+TEST_CASE("camera: raster position inverts ray generation, with Mitsuba's axes", "[camera]") {
     for (FovAxis axis : {FovAxis::X, FovAxis::Y, FovAxis::Smaller, FovAxis::Larger, FovAxis::Diagonal}) {
         CameraDesc d = test::lookAt(Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(0, 1, 0), 50.f, 64, 48);
         d.fovAxis = axis;

@@ -146,7 +146,7 @@ TEST_CASE("render with --strategy-images writes per-technique images that sum to
     }
 }
 
-TEST_CASE("the scene's integrator type selects the integrator; --integrator overrides it", "[cli][bpt]") {
+TEST_CASE("the scene's integrator type selects the integrator and --integrator overrides it", "[cli][bpt]") {
     fs::path dir = tempDir("xmlinteg");
     Run r = run(std::string(LT_SOURCE_DIR) + "/tests/data/sds/sds.xml --spp 1 --quiet -o " + (dir / "a.exr").string());
     INFO(r.output);
