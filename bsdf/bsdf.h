@@ -162,10 +162,21 @@ public:
     // inline (no virtual call, no spills around one), as pbrt-v4 dispatches on a type tag. The
     // diffuse surface is the most common of all; every other model goes through the virtual calls.
     const Lambert* lambert() const { return lambert_; }
+    // The probability that a random walk continues from a vertex on this material (Russian
+    // roulette, as SmallVCM's ContinuationProb): the largest component of the scale of its lobes
+    // (reflectance, or the larger of the specular reflectance and transmittance), at most 1.
+    // Independent of the directions, so that the same factor enters a vertex's density in both
+    // walk directions (the walks and connections multiply it into the MIS densities, path.h); a
+    // Lambert sample's weight over it is at most 1 in every channel, so no throughput grows.
+    float continuation() const { return continuation_; }
 
 protected:
     const Lambert* lambert_ = nullptr;
+    float continuation_ = 1.f;  // set by each model's constructor
 };
+
+// min(1, max(0, the largest channel of c)): the continuation probability of a lobe scaled by c.
+inline float continuationOf(const Color& c) { return std::min(1.f, std::max(0.f, maxComp(c))); }
 
 using BxdfPtr = std::shared_ptr<const Bxdf>;
 

@@ -13,7 +13,9 @@ class ConductorBxdf final : public Bxdf {
 public:
     ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
                   const Color& k, const Color& specR)
-        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {}
+        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {
+        continuation_ = continuationOf(specR);  // the Fresnel factor is <= 1 on top
+    }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);

@@ -21,7 +21,9 @@ public:
     DielectricBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, float eta,
                    const Color& specR, const Color& specT)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), specR_(specR),
-          specT_(specT) {}
+          specT_(specT) {
+        continuation_ = std::max(continuationOf(specR), continuationOf(specT));
+    }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         if (eta_ == 1.f || wo.z == 0.f || wi.z == 0.f) return BsdfEval{};

@@ -8,7 +8,10 @@ namespace {
 
 class DiffuseBxdf final : public Bxdf {
 public:
-    explicit DiffuseBxdf(const Color& r) : model_{r, r * kInvPi} { lambert_ = &model_; }
+    explicit DiffuseBxdf(const Color& r) : model_{r, r * kInvPi} {
+        lambert_ = &model_;
+        continuation_ = continuationOf(r);
+    }
     DiffuseBxdf(const DiffuseBxdf&) = delete;  // lambert_ points into this object
     DiffuseBxdf& operator=(const DiffuseBxdf&) = delete;
 
@@ -30,7 +33,7 @@ private:
 // directions are mirrored through the tangent plane (z negated) before calling the inner model.
 class TwoSidedBxdf final : public Bxdf {
 public:
-    explicit TwoSidedBxdf(BxdfPtr inner) : inner_(std::move(inner)) {}
+    explicit TwoSidedBxdf(BxdfPtr inner) : inner_(std::move(inner)) { continuation_ = inner_->continuation(); }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         if (wo.z < 0.f) return inner_->eval(flip(wo), flip(wi), ctx);

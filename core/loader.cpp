@@ -115,8 +115,10 @@ private:
         I.type = !known ? "path" : t == "sppm" ? "ppm" : t;
         I.maxDepth = p.getInt("max_depth", -1);
         if (I.maxDepth < -1) p.failAt("max_depth", fmt::format("must be -1 (unlimited) or >= 0 (got {})", I.maxDepth));
-        I.rrDepth = p.getInt("rr_depth", 5);
-        if (I.rrDepth < 1) p.failAt("rr_depth", fmt::format("must be >= 1 (got {})", I.rrDepth));
+        if (p.has("rr_depth")) {  // absent: the integrator's default (rrDepthOf)
+            I.rrDepth = p.getInt("rr_depth", 1);
+            if (I.rrDepth < 1) p.failAt("rr_depth", fmt::format("must be >= 1 (got {})", I.rrDepth));
+        }
         I.hideEmitters = p.getBool("hide_emitters", false);
         if (!known) return;
         // Regularisation (integrators/transport/regularizer.h).

@@ -56,7 +56,7 @@ struct CameraDesc {
 struct IntegratorDesc {
     std::string type = "path";  // path | bdpt | vcm | ptracer | ppm
     int maxDepth = -1;          // -1 = unlimited (Mitsuba); counts segments: 1 = direct emission only
-    int rrDepth = 5;
+    int rrDepth = 0;            // 0: the integrator's default (rrDepthOf, integrators/integrator.h)
     bool hideEmitters = false;
     float radius = -1.f;        // VCM/PPM initial radius (<=0: derived from scene size)
     float radiusAlpha = 0.75f;

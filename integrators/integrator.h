@@ -17,7 +17,7 @@ struct RenderSettings {
     int threads = 0;                // 0 = all cores
     uint64_t seed = 0;
     int maxDepth = -1;              // segments (Mitsuba semantics); -1 = unlimited
-    int rrDepth = 5;
+    int rrDepth = 0;                // Russian roulette from this depth; 0: the integrator's (rrDepthOf)
     bool hideEmitters = false;
     bool quiet = false;             // no progress bar
     // PT only: "mis" (NEE and emitter hits, power heuristic), "nee" (emitter hits only where NEE
@@ -46,6 +46,13 @@ inline double regularisationTauOf(const reg::Jg19& r) { return r.tau(); }
 
 // JG19's default tau_0 (Sec. 6): 30 for PT and BPT (and LT), 1000 for VCM (and PPM).
 double regTauDefault(const std::string& integrator);
+
+// The depth from which the walks play Russian roulette (path.h): s.rrDepth if set, else 1 for the
+// bidirectional integrators (bpt, vcm, lt, ppm: as SmallVCM, and their MIS densities are then
+// exactly the walks' densities) and 5 for the path tracer (its two techniques meet only at the
+// last vertex; with the roulette from the first bounce it needed 5-15% more time for the same
+// error on SmallVCM's five boxes, docs/smallvcm-comparison.md).
+int rrDepthOf(const RenderSettings& s);
 
 struct RenderStats {
     uint64_t spp = 0;

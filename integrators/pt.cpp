@@ -56,7 +56,7 @@ public:
     // instructions than before the seam.
     [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z,
                                     PathPdfs& pdfs, WalkStats& stats) const {
-        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, settings_.rrDepth, z, stats, WalkPdfs::EmitterHits);
+        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, rrDepthOf(settings_), z, stats, WalkPdfs::EmitterHits);
         Color L(0.f);
         const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
         for (int t = 2; t <= nz; ++t) {

@@ -17,6 +17,11 @@ double regTauDefault(const std::string& integrator) {
     return integrator == "vcm" || integrator == "ppm" ? 1000.0 : 30.0;
 }
 
+int rrDepthOf(const RenderSettings& s) {
+    if (s.rrDepth > 0) return s.rrDepth;
+    return s.integrator == "pt" ? 5 : 1;
+}
+
 std::string supportedIntegrators() { return "pt, bpt, vcm, lt, ppm"; }
 
 std::string integratorForSceneType(const std::string& t) {

@@ -111,7 +111,7 @@ public:
             PathVertex camera = cameraEndpoint(scene, reg_);
             for (size_t j = c * kChunk; j < std::min(nPaths, (c + 1) * kChunk); ++j) {
                 Rng rng = Rng::forSample(settings_.seed, j, pass, /*domain=*/1);
-                int ny = lightWalk(scene, reg_, rng, maxLight, settings_.rrDepth, y.data(), ws);
+                int ny = lightWalk(scene, reg_, rng, maxLight, rrDepthOf(settings_), y.data(), ws);
                 chunk.counts.push_back(uint32_t(ny));
                 chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
                 if (useLightTracing_) lightTrace(scene, film, y.data(), ny, camera, splat, ws);
@@ -166,7 +166,7 @@ private:
 
     Color radiance(const Scene& scene, const Vec2& raster, uint32_t pixel, Rng& rng, PathVertex* z,
                    WalkStats& stats) const {
-        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth_ + 1, settings_.rrDepth, z, stats);
+        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth_ + 1, rrDepthOf(settings_), z, stats);
         const PathVertex* y = store_.path(pixel);
         const int ny = store_.length(pixel);
         const float mergeNorm = 1.f / (cfg_.mergeArea * cfg_.lightPaths);

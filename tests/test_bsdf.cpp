@@ -670,3 +670,29 @@ TEST_CASE("named IORs and conductor presets", "[bsdf][ior]") {
     CHECK(luminance(fresnelConductor(1.f, conductorPreset("Ag")->eta, conductorPreset("Ag")->k)) > 0.9f);
     CHECK(luminance(fresnelConductor(1.f, conductorPreset("Al")->eta, conductorPreset("Al")->k)) > 0.85f);
 }
+
+// Russian roulette (path.h): the continuation probability is the largest channel of a lobe's
+// scale, clamped to [0, 1], the same for every direction; the sampled weight of a Lambert bounce
+// over it never exceeds 1 (no throughput grows).
+TEST_CASE("continuation probability of each model, and Lambert weights over it are at most 1", "[bsdf][roulette]") {
+    CHECK(makeDiffuse(Color(0.6f, 0.1f, 0.1f))->continuation() == 0.6f);
+    CHECK(makeDiffuse(Color(1.5f, 0.2f, 0.2f))->continuation() == 1.f);
+    CHECK(makeDiffuse(Color(0.f))->continuation() == 0.f);
+    CHECK(makeTwoSided(makeDiffuse(Color(0.1f, 0.3f, 0.2f)))->continuation() == 0.3f);
+    CHECK(makeConductor(Color(0.2f), Color(3.f), Color(0.9f, 0.5f, 0.4f))->continuation() == 0.9f);
+    CHECK(makeRoughConductor(MicrofacetType::GGX, 0.3f, 0.3f, Color(0.2f), Color(3.f), Color(0.25f))->continuation() ==
+          0.25f);
+    CHECK(makeDielectric(1.5f)->continuation() == 1.f);
+    CHECK(makeDielectric(1.5f, Color(0.2f), Color(0.7f, 0.1f, 0.1f))->continuation() == 0.7f);
+    CHECK(makeRoughDielectric(MicrofacetType::Beckmann, 0.2f, 0.2f, 1.33f, Color(0.8f), Color(0.5f))->continuation() ==
+          0.8f);
+
+    const BxdfPtr d = makeDiffuse(Color(0.5f, 0.8f, 0.2f));
+    Rng rng(7, 0);
+    for (int i = 0; i < 1000; ++i) {
+        const Vec3 wo = sampleCosineHemisphere(rng.uniform2());
+        BsdfSample s;
+        if (!d->sample(wo, rng.uniform(), rng.uniform2(), plainContext(TransportMode::Radiance), s)) continue;
+        CHECK(maxComp(s.weight / d->continuation()) <= 1.f + 1e-6f);
+    }
+}

@@ -12,6 +12,7 @@
 #include "bsdf/ior.h"
 #include "core/loader.h"
 #include "core/mesh_io.h"
+#include "integrators/integrator.h"
 
 using namespace lt;
 namespace fs = std::filesystem;
@@ -278,6 +279,14 @@ TEST_CASE("loader: integrators and their parameters", "[loader]") {
     CHECK(p.integrator.hideEmitters);
     SceneDesc d = loadStr(wrap(R"(<integrator type="path"/>)"));
     CHECK(d.integrator.maxDepth == -1);  // Mitsuba: unlimited
+    CHECK(d.integrator.rrDepth == 0);    // absent: the integrator's default, resolved by rrDepthOf
+    RenderSettings rs;
+    for (auto [integ, depth] : {std::pair<const char*, int>{"pt", 5}, {"bpt", 1}, {"vcm", 1}, {"lt", 1}, {"ppm", 1}}) {
+        rs.integrator = integ;
+        CHECK(rrDepthOf(rs) == depth);
+    }
+    rs.rrDepth = 3;
+    CHECK(rrDepthOf(rs) == 3);
     SceneDesc vp = loadStr(wrap(R"(<integrator type="volpath"><integer name="max_depth" value="4"/>
         <boolean name="unknown_thing" value="true"/></integrator>)"));
     CHECK(vp.integrator.type == "path");

@@ -101,6 +101,7 @@ RunConfig parseConfig(const std::string& spec) {
             if (*c.maxDepth < -1) throw std::invalid_argument("--max-depth must be >= -1");
         } else if (opt == "--rr-depth") {
             c.rrDepth = toInt(opt, val);
+            if (*c.rrDepth < 1) throw std::invalid_argument("--rr-depth must be >= 1");
         } else if (opt == "--hide-emitters") {
             c.hideEmitters = val.empty() || val == "true" || val == "1";
         } else if (opt == "--radius") {

@@ -204,6 +204,7 @@ int main(int argc, char** argv) {
         j["seed"] = settings.seed;
         j["threads"] = threads;
         j["max_depth"] = settings.maxDepth;
+        j["rr_depth"] = rrDepthOf(settings);
         j["regularizer"] = settings.regularizer;
         if (settings.regularizer != "none") {
             j["reg_tau0"] = settings.regTau > 0.0 ? settings.regTau : regTauDefault(settings.integrator);

@@ -36,6 +36,19 @@
 // values at a delta vertex come from the walk that passed through it, so the relative eta of that
 // walk is consistent.) Storing them as 1, as before, dropped the cosines and left a ratio of
 // squared segment lengths: fireflies from s = 0 on long paths through glass.
+//
+// Russian roulette. A walk leaves a surface vertex v with probability c_v = Bxdf::continuation()
+// (the largest scale of the material's lobes, at most 1; SmallVCM's ContinuationProb) and divides
+// the throughput by it, from depth rr_depth on. c_v is a property of the vertex alone, so it is
+// the same for a walk from either side: both densities a walk derives from v's BSDF (of the next
+// vertex, and the reverse one of the previous) carry it, and so do the densities evaluated at a
+// connection or merge vertex (evalAtConnection, refreshPdfs). The MIS sum then compares the
+// techniques' true densities, as SmallVCM's does, exactly when rr_depth is 1 (the default); with
+// a larger rr_depth the vertices nearer an endpoint than rr_depth are continued with probability 1
+// but their densities still carry c_v (the weights remain a partition of unity: every technique
+// reads the same densities). Unlike a roulette on the throughput (which kept long paths' throughput
+// near 1 and made those few that reached a light through glass into fireflies), the weight of a
+// Lambert bounce over c_v is at most 1: a throughput never grows.
 #pragma once
 #include <array>
 #include <vector>

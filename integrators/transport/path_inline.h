@@ -66,15 +66,22 @@ inline bool requestCanChange(const PathVertex& v, const BsdfContext& ctx) {
 // A connection (or merge) vertex's BSDF towards wi, evaluated with the technique's context
 // (regularizer.h (1)): the value is the regularised one, the densities stay those of the
 // material's own BSDF, which is what the walks sample (a request changes a technique's density in
-// the MIS only through its per-technique factor, regularizer.h (2)). `ratio` receives
+// the MIS only through its per-technique factor, regularizer.h (2)), times the vertex's
+// continuation probability as the walks' densities ("Russian roulette", path.h). `ratio` receives
 // rho_hat / rho (channel means; +inf when rho is 0 or a delta). Where the request cannot change
 // the BSDF (requestCanChange): one evaluation, as ever, and ratio 1.
 inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio) {
-    if (!requestCanChange(v, ctx)) return v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
+    const float cont = v.bxdf->continuation();
+    if (!requestCanChange(v, ctx)) {
+        BsdfEval e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
+        e.pdfFwd.value *= cont;
+        e.pdfRev.value *= cont;
+        return e;
+    }
     BsdfEval e = v.bsdf().eval(v.wo, wi, ctx);
     const BsdfEval plain = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
-    e.pdfFwd = plain.pdfFwd;
-    e.pdfRev = plain.pdfRev;
+    e.pdfFwd = SolidAnglePdf(plain.pdfFwd.value * cont);
+    e.pdfRev = SolidAnglePdf(plain.pdfRev.value * cont);
     ratio = regularisedRatio(e.f, plain.f);
     return e;
 }

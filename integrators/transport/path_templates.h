@@ -30,6 +30,9 @@ static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfC
         case VertexKind::Surface:
             if (!prev.delta && prev.bxdf) {
                 BsdfEval e = prev.bsdf().eval(prev.wo, d, ctx);
+                const float cont = prev.bxdf->continuation();  // the roulette at prev ("Russian roulette", path.h)
+                e.pdfFwd.value *= cont;
+                e.pdfRev.value *= cont;
                 if (e.pdfFwd.value > 0.f) pdfFwd = e.pdfFwd;
                 if (i >= 2 && e.pdfRev.value > 0.f)
                     path[i - 2].*rev = convertDensity(e.pdfRev, path[i - 2], prev.wo, sqr(prev.segmentLength));
@@ -99,8 +102,12 @@ int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAng
         Vec2 u = rng.uniform2();
         if (!v.bsdf().sample(v.wo, uLobe, u, ctx, bs) || isBlack(bs.weight)) break;
         v.lobe = bs.lobe;
-        SolidAnglePdf pdfRev = bs.pdfRev;
-        pdfFwd = bs.pdfFwd;
+        // The roulette's continuation probability is part of both densities of the next vertex
+        // (and of prev, below) whether or not the roulette runs at this depth ("Russian
+        // roulette", path.h).
+        const float cont = v.bxdf->continuation();
+        SolidAnglePdf pdfRev(bs.pdfRev.value * cont);
+        pdfFwd = SolidAnglePdf(bs.pdfFwd.value * cont);
         if (bs.lobe & kDelta) {
             // No technique connects here (the MIS routine skips them), but the techniques on
             // either side of v compare densities that cross it: the generalised densities of
@@ -109,15 +116,14 @@ int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAng
             v.delta = true;
             const float cosWi = std::abs(glm::dot(v.shading.n, bs.wi));
             const float cosWo = std::abs(glm::dot(v.shading.n, v.wo));
-            pdfFwd = SolidAnglePdf(bs.pdfFwd.value * cosWi * (bs.eta * bs.eta));
-            pdfRev = SolidAnglePdf(bs.pdfRev.value * cosWo);
+            pdfFwd = SolidAnglePdf(pdfFwd.value * cosWi * (bs.eta * bs.eta));
+            pdfRev = SolidAnglePdf(pdfRev.value * cosWo);
         }
         if (allPdfs) prev.*rev = convertDensity(pdfRev, prev, v.wo, sqr(v.segmentLength));
         beta *= bs.weight;
-        if (v.depth >= rrDepth) {
-            float q = std::min(0.95f, maxComp(beta));
-            if (!(rng.uniform() < q)) break;
-            beta /= q;
+        if (v.depth >= rrDepth && cont < 1.f) {
+            if (!(rng.uniform() < cont)) break;
+            beta /= cont;
         }
         ray = scene.spawnRay(v.p, v.ng, bs.wi);
     }
