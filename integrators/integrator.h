@@ -50,7 +50,7 @@ double regTauDefault(const std::string& integrator);
 // The depth from which the walks play Russian roulette (path.h): s.rrDepth if set, else 1 for the
 // bidirectional integrators (bpt, vcm, lt, ppm: as SmallVCM, and their MIS densities are then
 // exactly the walks' densities) and 5 for the path tracer (its two techniques meet only at the
-// last vertex; with the roulette from the first bounce it needed 5-15% more time for the same
+// last vertex; with the roulette from the first bounce it needed 2-20% more rays for the same
 // error on SmallVCM's five boxes, docs/smallvcm-comparison.md).
 int rrDepthOf(const RenderSettings& s);
 
