@@ -108,6 +108,26 @@ RunConfig parseConfig(const std::string& spec) {
             c.radius = toDouble(opt, val);
         } else if (opt == "--radius-alpha" || opt == "--alpha") {
             c.radiusAlpha = toDouble(opt, val);
+        } else if (opt == "--reg") {
+            if (val != "none" && val != "jg19")
+                throw std::invalid_argument(fmt::format("configuration '{}': --reg is none or jg19", spec));
+            c.regularizer = val;
+        } else if (opt == "--reg-tau") {
+            c.regTau = toDouble(opt, val);
+            if (!(*c.regTau > 1.0 / (2.0 * kPi)))  // rho_bar^-1 exists above the bound of alpha = 1
+                throw std::invalid_argument(fmt::format("configuration '{}': --reg-tau must exceed 1/(2 pi)", spec));
+        } else if (opt == "--reg-schedule") {
+            if (val != "consistent" && val != "fixed")
+                throw std::invalid_argument(fmt::format("configuration '{}': --reg-schedule is consistent or fixed", spec));
+            c.regSchedule = val;
+        } else if (opt == "--reg-mis") {
+            if (val != "regularised" && val != "sampling")
+                throw std::invalid_argument(fmt::format("configuration '{}': --reg-mis is regularised or sampling", spec));
+            c.regMis = val;
+        } else if (opt == "--reg-quality") {
+            if (val != "on" && val != "off")
+                throw std::invalid_argument(fmt::format("configuration '{}': --reg-quality is on or off", spec));
+            c.regQuality = val == "on";
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;
@@ -179,9 +199,15 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     if (c.hideEmitters) s.hideEmitters = *c.hideEmitters;
     if (c.radius) s.radius = float(*c.radius);
     if (c.radiusAlpha) s.radiusAlpha = float(*c.radiusAlpha);
+    s.regularizer = c.regularizer.value_or(desc.integrator.regularizer);
+    s.regTau = c.regTau.value_or(desc.integrator.regTau);
+    s.regSchedule = c.regSchedule.value_or(desc.integrator.regSchedule);
+    s.regMis = c.regMis.value_or(desc.integrator.regMis);
+    s.regQuality = c.regQuality.value_or(desc.integrator.regQuality);
     if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
         throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
-                                                    "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --label)",
+                                                    "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --reg, --reg-tau, "
+                                                    "--reg-schedule, --reg-mis, --reg-quality, --label)",
                                                     c.spec, c.extra.begin()->first));
     return s;
 }

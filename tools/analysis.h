@@ -21,7 +21,8 @@ namespace lt::analysis {
 //   "pt"  "pt --pt-strategy bsdf"  "vcm --radius 0.01 --radius-alpha 0.75"  "bpt --max-depth 8 --label BPT"
 // Options (as in `render`): --pt-strategy mis|nee|bsdf, --max-depth D, --rr-depth D, --hide-emitters,
 // --radius R, --radius-alpha A (or --alpha; initial radius and radius reduction of VCM/PPM),
-// --label NAME (the name in legends, tables and the CSV; default: the whole string). Any other
+// --reg none|jg19, --reg-tau T, --reg-schedule consistent|fixed, --reg-mis regularised|sampling,
+// --reg-quality on|off (path-space regularisation, as render), --label NAME (the name in legends, tables and the CSV; default: the whole string). Any other
 // `--name value` is an error naming it. Mitsuba integrator
 // names (path, bdpt, ptracer) are accepted for pt, bpt, lt.
 struct RunConfig {
@@ -32,6 +33,10 @@ struct RunConfig {
     std::optional<int> maxDepth, rrDepth;
     std::optional<bool> hideEmitters;
     std::optional<double> radius, radiusAlpha;
+    // Regularisation, as render's --reg, --reg-tau, --reg-schedule, --reg-mis, --reg-quality.
+    std::optional<std::string> regularizer, regSchedule, regMis;
+    std::optional<double> regTau;
+    std::optional<bool> regQuality;
     std::map<std::string, std::string> extra;
 };
 
