@@ -76,7 +76,7 @@ float alphaForBound(MicrofacetType type, MaskingModel masking, float tau, bool t
 
 double consistentTau(double tau0, uint64_t n) {
     if (n == 0) throw std::invalid_argument("consistentTau: the iteration index n starts at 1");
-    if (!(tau0 > 1.0 / (2.0 * kPiD)))
+    if (!(tau0 > kMinTau))
         throw std::invalid_argument("consistentTau: tau0 must exceed 1/(2 pi) = 0.159, got " + std::to_string(tau0));
     if (std::isinf(tau0)) return std::numeric_limits<double>::infinity();
     const double k = 2.0 * kPiD * tau0 - 1.0;

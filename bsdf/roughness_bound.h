@@ -53,6 +53,10 @@ float maxValueBound(MicrofacetType type, MaskingModel masking, float alpha, bool
 // tau <= 0 gives 1; tau = +inf gives 0.
 float alphaForBound(MicrofacetType type, MaskingModel masking, float tau, bool transmission, float eta);
 
+// The least bound tau can be: 1/(2 pi) bounds a lobe spread uniformly over the hemisphere. Every
+// tau a user gives (XML reg_tau, --reg-tau) must exceed it; Eq. 16 needs 2 pi tau0 > 1.
+inline constexpr double kMinTau = 1.0 / (2.0 * 3.14159265358979323846);
+
 // The consistent bound of JG19 Eq. 16 for iteration (sample index) n >= 1:
 //   tau_n = 1 / (2 pi [1 - cos(atan(x n^(-1/6)))]),  x = sqrt(4 pi tau0 - 1) / (2 pi tau0 - 1),
 // so tau_1 = tau0, tau_n increases strictly and grows like n^(1/3) / (pi x^2). Evaluated in

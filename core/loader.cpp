@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <set>
 #include "bsdf/ior.h"
+#include "bsdf/roughness_bound.h"
 #include "core/loader_xml.h"
 #include "core/mesh_io.h"
 
@@ -123,19 +124,21 @@ private:
         if (!known) return;
         // Regularisation (integrators/transport/regularizer.h).
         I.regularizer = xml::lower(p.getString("regularizer", "none"));
-        if (!isIn({"none", "jg19"}, I.regularizer))
-            p.failAt("regularizer", fmt::format("unknown regulariser '{}' (supported: none, jg19)", I.regularizer));
+        if (!isIn(kRegularizerNames, I.regularizer))
+            p.failAt("regularizer", fmt::format("unknown regulariser '{}' (supported: {})", I.regularizer,
+                                                joinList(kRegularizerNames)));
         if (p.has("reg_tau")) {
             I.regTau = p.getFloat("reg_tau", -1.f);
-            if (!(I.regTau > 1.0 / (2.0 * 3.14159265358979)))
+            if (!(I.regTau > kMinTau))
                 p.failAt("reg_tau", fmt::format("must exceed 1/(2 pi) = 0.159 (got {})", I.regTau));
         }
         I.regSchedule = xml::lower(p.getString("reg_schedule", "consistent"));
-        if (!isIn({"consistent", "fixed"}, I.regSchedule))
-            p.failAt("reg_schedule", fmt::format("unknown schedule '{}' (supported: consistent, fixed)", I.regSchedule));
+        if (!isIn(kRegScheduleNames, I.regSchedule))
+            p.failAt("reg_schedule", fmt::format("unknown schedule '{}' (supported: {})", I.regSchedule,
+                                                 joinList(kRegScheduleNames)));
         I.regMis = xml::lower(p.getString("reg_mis", "regularised"));
-        if (!isIn({"regularised", "sampling"}, I.regMis))
-            p.failAt("reg_mis", fmt::format("unknown MIS densities '{}' (supported: regularised, sampling)", I.regMis));
+        if (!isIn(kRegMisNames, I.regMis))
+            p.failAt("reg_mis", fmt::format("unknown MIS densities '{}' (supported: {})", I.regMis, joinList(kRegMisNames)));
         I.regQuality = p.getBool("reg_quality", true);
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.

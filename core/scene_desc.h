@@ -53,6 +53,12 @@ struct CameraDesc {
     FilterType filter = FilterType::Box;  // tent: filter importance sampling, radius 1 pixel
 };
 
+// The values the regularisation parameters accept: the loader (XML), render's options and the
+// analysis tools' configurations check against these lists.
+inline const std::vector<std::string> kRegularizerNames{"none", "jg19"};
+inline const std::vector<std::string> kRegScheduleNames{"consistent", "fixed"};
+inline const std::vector<std::string> kRegMisNames{"regularised", "sampling"};
+
 struct IntegratorDesc {
     std::string type = "path";  // path | bdpt | vcm | ptracer | ppm
     int maxDepth = -1;          // -1 = unlimited (Mitsuba); counts segments: 1 = direct emission only

@@ -1,5 +1,6 @@
 // Shared code of the analysis tools; see analysis.h.
 #include "tools/analysis.h"
+#include "bsdf/roughness_bound.h"
 #include "core/loader.h"
 
 #include <fmt/format.h>
@@ -69,6 +70,15 @@ int toInt(const std::string& opt, const std::string& v) {
     return int(d);
 }
 
+// val if it is one of `names`, else an error naming the configuration, the option and the names.
+const std::string& oneOf(const std::string& spec, const std::string& opt, const std::string& val,
+                         const std::vector<std::string>& names) {
+    if (std::find(names.begin(), names.end(), val) == names.end())
+        throw std::invalid_argument(
+            fmt::format("configuration '{}': {} is one of {} (got '{}')", spec, opt, fmt::join(names, ", "), val));
+    return val;
+}
+
 }  // namespace
 
 RunConfig parseConfig(const std::string& spec) {
@@ -109,25 +119,17 @@ RunConfig parseConfig(const std::string& spec) {
         } else if (opt == "--radius-alpha" || opt == "--alpha") {
             c.radiusAlpha = toDouble(opt, val);
         } else if (opt == "--reg") {
-            if (val != "none" && val != "jg19")
-                throw std::invalid_argument(fmt::format("configuration '{}': --reg is none or jg19", spec));
-            c.regularizer = val;
+            c.regularizer = oneOf(spec, opt, val, kRegularizerNames);
         } else if (opt == "--reg-tau") {
             c.regTau = toDouble(opt, val);
-            if (!(*c.regTau > 1.0 / (2.0 * kPi)))  // rho_bar^-1 exists above the bound of alpha = 1
+            if (!(*c.regTau > kMinTau))
                 throw std::invalid_argument(fmt::format("configuration '{}': --reg-tau must exceed 1/(2 pi)", spec));
         } else if (opt == "--reg-schedule") {
-            if (val != "consistent" && val != "fixed")
-                throw std::invalid_argument(fmt::format("configuration '{}': --reg-schedule is consistent or fixed", spec));
-            c.regSchedule = val;
+            c.regSchedule = oneOf(spec, opt, val, kRegScheduleNames);
         } else if (opt == "--reg-mis") {
-            if (val != "regularised" && val != "sampling")
-                throw std::invalid_argument(fmt::format("configuration '{}': --reg-mis is regularised or sampling", spec));
-            c.regMis = val;
+            c.regMis = oneOf(spec, opt, val, kRegMisNames);
         } else if (opt == "--reg-quality") {
-            if (val != "on" && val != "off")
-                throw std::invalid_argument(fmt::format("configuration '{}': --reg-quality is on or off", spec));
-            c.regQuality = val == "on";
+            c.regQuality = oneOf(spec, opt, val, {"on", "off"}) == "on";
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;

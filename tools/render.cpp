@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include "bsdf/roughness_bound.h"
 #include "core/image.h"
 #include "core/loader.h"
 #include "integrators/integrator.h"
@@ -57,17 +58,17 @@ int main(int argc, char** argv) {
     std::string regularizer, regSchedule, regMis, regQuality;
     double regTau = -1.0;
     app.add_option("--reg", regularizer, "Path-space regulariser: none (default), jg19 (overrides the scene's)")
-        ->check(CLI::IsMember({"none", "jg19"}));
+        ->check(CLI::IsMember(kRegularizerNames));
     app.add_option("--reg-tau", regTau,
                    "JG19 bound tau_0 on the BSDF at connections and merges (default 30 for pt/bpt/lt, 1000 for "
                    "vcm/ppm; JG19 Sec. 6); must exceed 1/(2 pi)")
-        ->check(CLI::Range(1.0 / (2.0 * 3.14159265358979) + 1e-9, 1e300));
+        ->check(CLI::Range(kMinTau + 1e-9, 1e300));
     app.add_option("--reg-schedule", regSchedule,
                    "JG19 tau over iterations: consistent (default; Eq. 16, tau_N grows, the bias vanishes) or fixed")
-        ->check(CLI::IsMember({"consistent", "fixed"}));
+        ->check(CLI::IsMember(kRegScheduleNames));
     app.add_option("--reg-mis", regMis,
                    "JG19 MIS densities: regularised (default; Eq. 13) or sampling (the naive weights, JG19 Fig. 3a)")
-        ->check(CLI::IsMember({"regularised", "sampling"}));
+        ->check(CLI::IsMember(kRegMisNames));
     app.add_option("--reg-quality", regQuality,
                    "JG19 sampler quality heuristic (Eqs. 17-18): on (default; a path an unbiased technique samples "
                    "well is not regularised, the others at one connection chosen per path) or off (every technique "

@@ -9,7 +9,7 @@
 namespace lt::reg {
 
 Jg19::Jg19(const Jg19Settings& settings) : settings_(settings) {
-    if (!(settings.tau0 > 1.0 / (2.0 * kPi)))
+    if (!(settings.tau0 > kMinTau))
         throw std::invalid_argument("JG19: tau must exceed 1/(2 pi) = 0.159, got " + std::to_string(settings.tau0));
     setIteration(1);
 }
