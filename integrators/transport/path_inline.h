@@ -71,18 +71,15 @@ inline bool requestCanChange(const PathVertex& v, const BsdfContext& ctx) {
 // rho_hat / rho (channel means; +inf when rho is 0 or a delta). Where the request cannot change
 // the BSDF (requestCanChange): one evaluation, as ever, and ratio 1.
 inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio) {
-    const float cont = v.bxdf->continuation();
-    if (!requestCanChange(v, ctx)) {
-        BsdfEval e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
-        e.pdfFwd.value *= cont;
-        e.pdfRev.value *= cont;
-        return e;
+    BsdfEval e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
+    if (requestCanChange(v, ctx)) {
+        const Color plain = e.f;
+        e.f = v.bsdf().eval(v.wo, wi, ctx).f;
+        ratio = regularisedRatio(e.f, plain);
     }
-    BsdfEval e = v.bsdf().eval(v.wo, wi, ctx);
-    const BsdfEval plain = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
-    e.pdfFwd = SolidAnglePdf(plain.pdfFwd.value * cont);
-    e.pdfRev = SolidAnglePdf(plain.pdfRev.value * cont);
-    ratio = regularisedRatio(e.f, plain.f);
+    const float cont = v.bxdf->continuation();
+    e.pdfFwd.value *= cont;
+    e.pdfRev.value *= cont;
     return e;
 }
 
