@@ -66,8 +66,10 @@ public:
             if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
                 Color c = emitterHit(scene, reg_, z, t, pdfs, readLimit);
                 if (!isBlack(c)) {
-                    L += c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
-                    if constexpr (Reg::kPerTechnique) ++stats.contributions;
+                    const Color weighted =
+                        c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
+                    L += weighted;
+                    if constexpr (Reg::kPerTechnique) stats.countContribution(weighted, false);
                 }
             }
             // s = 1: next-event estimation (t segments).
@@ -78,9 +80,11 @@ public:
                 Connection conn;
                 if (sampleLightVertex(scene, reg_, v.p, rng, y) &&
                     connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit)) {
-                    L += conn.contribution *
-                         (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
-                    if constexpr (Reg::kPerTechnique) ++stats.contributions, stats.regularised += conn.pdfs.regularised;
+                    const Color weighted = conn.contribution * (strategy_ == Strategy::Mis
+                                                                    ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer)
+                                                                    : 1.f);
+                    L += weighted;
+                    if constexpr (Reg::kPerTechnique) stats.countContribution(weighted, conn.pdfs.regularised);
                 }
             }
         }

@@ -158,9 +158,9 @@ private:
             if (s == 1 && (y[0].light->isDeltaPosition() || settings_.hideEmitters)) continue;  // as PT: point lights are not seen
             Connection c;
             if (!connect(scene, reg_, y, s, &camera, 1, c, ws)) continue;
-            float w = connectionWeight(c.pdfs, s, 1);
-            film.splat(splat, c.raster, c.contribution * w, uint16_t(s), c.pdfs.regularised);
-            if constexpr (Reg::kPerTechnique) ++ws.contributions, ws.regularised += c.pdfs.regularised;
+            const Color weighted = c.contribution * connectionWeight(c.pdfs, s, 1);
+            film.splat(splat, c.raster, weighted, uint16_t(s), c.pdfs.regularised);
+            if constexpr (Reg::kPerTechnique) ws.countContribution(weighted, c.pdfs.regularised);
         }
     }
 
@@ -253,8 +253,7 @@ private:
                 WalkStats& stats) const {
         L += c;
         if (strategies_) strategies_->add(isMerge, s, t, pixel, c, regularised);
-        if constexpr (Reg::kPerTechnique)
-            if (!isBlack(c)) ++stats.contributions, stats.regularised += regularised;
+        if constexpr (Reg::kPerTechnique) stats.countContribution(c, regularised);
     }
 
     RenderSettings settings_;

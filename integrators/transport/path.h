@@ -147,6 +147,10 @@ struct WalkStats {
     // those whose own technique evaluated a regularised BSDF (PathPdfs::regularised).
     uint64_t contributions = 0, regularised = 0;
     RayLog* log = nullptr;  // usually null: one predictable branch per ray
+    // The one place that counts them: a contribution as weighted, and whether its technique was.
+    void countContribution(const Color& weighted, bool regularisedTechnique) {
+        if (!isBlack(weighted)) ++contributions, regularised += regularisedTechnique;
+    }
 };
 
 // Which vertex densities a walk computes. All: both densities of every vertex, re-evaluated at
