@@ -5,7 +5,9 @@
 #pragma once
 #include <cstddef>
 #include <cstdlib>
+#include <memory>
 #include <new>
+#include <type_traits>
 #include <vector>
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -42,5 +44,37 @@ struct HugePageAllocator {
 
 template <class T>
 using HugeVector = std::vector<T, HugePageAllocator<T>>;
+
+// The same memory for records that are rewritten in full every iteration: resize() never
+// initialises and keeps its capacity, so the caller's parallel writes are also the first touch of
+// new pages (the kernel zeroes a page at its first touch: through a vector's serial resize or
+// growth, that cost the first VCM iteration 0.2 s on one thread at 256x256).
+template <class T>
+class HugeArray {
+    static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_destructible_v<T>);
+
+public:
+    // Size n, contents unspecified (those of the previous iteration, or none).
+    void resize(size_t n) {
+        if (n > capacity_) {
+            const size_t cap = n + n / 4;  // headroom: the count varies a little per iteration
+            data_.reset(HugePageAllocator<T>().allocate(cap));
+            capacity_ = cap;
+        }
+        size_ = n;
+    }
+    size_t size() const { return size_; }
+    T* data() { return data_.get(); }
+    const T* data() const { return data_.get(); }
+    T& operator[](size_t i) { return data_.get()[i]; }
+    const T& operator[](size_t i) const { return data_.get()[i]; }
+
+private:
+    struct Free {
+        void operator()(T* p) const { HugePageAllocator<T>().deallocate(p, 0); }
+    };
+    std::unique_ptr<T[], Free> data_;
+    size_t size_ = 0, capacity_ = 0;
+};
 
 }  // namespace lt

@@ -118,9 +118,8 @@ public:
             }
             rays += ws.rays;
         });
-        store_.clear();
+        store_.assign(chunks_);
         for (size_t c = 0; c < nChunks; ++c) {
-            store_.append(chunks_[c]);
             film.mergeSplats(splats_[c]);
             if (strategies_)
                 for (const auto& sp : splats_[c].splats)

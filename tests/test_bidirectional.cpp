@@ -436,7 +436,7 @@ LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream) {
         chunk.counts.push_back(uint32_t(ny));
         chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
     }
-    store.append(chunk);
+    store.assign(chunk);
     return store;
 }
 

@@ -153,7 +153,7 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
         chunk.counts.push_back(uint32_t(ny));
         chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
     }
-    store.append(chunk);
+    store.assign(chunk);
     HashGrid grid;
     grid.build(store, 0.05f, cfg);
     int merges = 0, mergesChanged = 0;

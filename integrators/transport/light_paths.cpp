@@ -3,11 +3,36 @@
 
 namespace lt {
 
+void LightPathStore::assign(std::span<const Chunk> chunks) {
+    // Where each chunk's vertices and paths go.
+    std::vector<size_t> vertexBase(chunks.size() + 1, 0), pathBase(chunks.size() + 1, 0);
+    for (size_t c = 0; c < chunks.size(); ++c) {
+        vertexBase[c + 1] = vertexBase[c] + chunks[c].vertices.size();
+        pathBase[c + 1] = pathBase[c] + chunks[c].counts.size();
+    }
+    vertices_.resize(vertexBase.back());
+    pdfs_.resize(vertexBase.back());
+    offset_.resize(pathBase.back());
+    count_.resize(pathBase.back());
+    tbb::parallel_for(size_t(0), chunks.size(), [&](size_t c) {
+        const Chunk& chunk = chunks[c];
+        std::copy(chunk.vertices.begin(), chunk.vertices.end(), vertices_.data() + vertexBase[c]);
+        for (size_t k = 0; k < chunk.vertices.size(); ++k)
+            pdfs_[vertexBase[c] + k] = VertexPdfs::of(chunk.vertices[k]);
+        size_t off = vertexBase[c];
+        for (size_t j = 0; j < chunk.counts.size(); ++j) {
+            offset_[pathBase[c] + j] = uint32_t(off);
+            count_[pathBase[c] + j] = chunk.counts[j];
+            off += chunk.counts[j];
+        }
+    });
+}
+
 void HashGrid::build(const LightPathStore& store, float radius, const MisConfig& cfg) {
     radius_ = radius;
     cellStarts_.clear();
-    photons_.clear();
-    positions_.clear();
+    photons_.resize(0);
+    positions_.resize(0);
     const auto& v = store.vertices();
     const auto& pdfs = store.pdfs();
     const size_t nv = v.size();

@@ -4,6 +4,7 @@
 // across iterations (capacity is kept). Alongside the vertices it keeps their MIS densities in a
 // compact array, so that a merge can gather a light subpath's pdfs without touching its vertices.
 #pragma once
+#include <span>
 #include <vector>
 #include "core/huge_pages.h"
 #include "integrators/transport/path.h"
@@ -19,32 +20,26 @@ struct VertexPdfs {
 
 class LightPathStore {
 public:
-    void clear() { vertices_.clear(); pdfs_.clear(); offset_.clear(); count_.clear(); }
-    size_t paths() const { return offset_.size(); }
-    const PathVertex* path(size_t j) const { return vertices_.data() + offset_[j]; }
-    int length(size_t j) const { return int(count_[j]); }
-    const HugeVector<PathVertex>& vertices() const { return vertices_; }
-    const HugeVector<VertexPdfs>& pdfs() const { return pdfs_; }
-
-    // Appends the paths built by one chunk of work, in order.
+    // Appended chunks, concatenated in order (below).
     struct Chunk {
         std::vector<PathVertex> vertices;
         std::vector<uint32_t> counts;
     };
-    void append(const Chunk& c) {
-        uint32_t off = uint32_t(vertices_.size());
-        for (uint32_t n : c.counts) {
-            offset_.push_back(off);
-            count_.push_back(n);
-            off += n;
-        }
-        vertices_.insert(vertices_.end(), c.vertices.begin(), c.vertices.end());
-        for (const PathVertex& v : c.vertices) pdfs_.push_back(VertexPdfs::of(v));
-    }
+
+    size_t paths() const { return offset_.size(); }
+    const PathVertex* path(size_t j) const { return vertices_.data() + offset_[j]; }
+    int length(size_t j) const { return int(count_[j]); }
+    const HugeArray<PathVertex>& vertices() const { return vertices_; }
+    const HugeArray<VertexPdfs>& pdfs() const { return pdfs_; }
+
+    // The store of one iteration: the paths built by each chunk of work, in chunk order. The
+    // chunks are copied in parallel into storage kept from the previous iteration.
+    void assign(std::span<const Chunk> chunks);
+    void assign(const Chunk& c) { assign(std::span<const Chunk>(&c, 1)); }
 
 private:
-    HugeVector<PathVertex> vertices_;
-    HugeVector<VertexPdfs> pdfs_;
+    HugeArray<PathVertex> vertices_;
+    HugeArray<VertexPdfs> pdfs_;
     std::vector<uint32_t> offset_, count_;
 };
 
@@ -172,10 +167,11 @@ private:
     }
     uint32_t cellHash(const glm::ivec3& c) const { return cellHashMod(c, cellStarts_.size() - 1); }
     HugeVector<uint32_t> cellStarts_;
-    HugeVector<Photon> photons_;
-    HugeVector<glm::vec4> positions_;            // position of photons_[k] (16 bytes), same order
-    std::vector<Photon> items_;                   // scratch, kept across iterations
-    std::vector<uint32_t> cellOf_, fill_;         // scratch
+    HugeArray<Photon> photons_;
+    HugeArray<glm::vec4> positions_;             // position of photons_[k] (16 bytes), same order
+    HugeArray<Photon> items_;                    // scratch, kept across iterations
+    HugeArray<uint32_t> cellOf_;                 // scratch
+    std::vector<uint32_t> fill_;                 // scratch
     Vec3 lo_{0.f};
     float invCell_ = 1.f, radius_ = 0.f;
 };
