@@ -140,6 +140,12 @@ private:
         if (!isIn(kRegMisNames, I.regMis))
             p.failAt("reg_mis", fmt::format("unknown MIS densities '{}' (supported: {})", I.regMis, joinList(kRegMisNames)));
         I.regQuality = p.getBool("reg_quality", true);
+        if (p.has("reg_diffusion")) {
+            I.regDiffusion = p.getBool("reg_diffusion", true);
+            if (*I.regDiffusion && !I.regQuality)
+                p.failAt("reg_diffusion", "the diffusion heuristic needs reg_quality true (it scales the bound at the "
+                                          "vertices the quality heuristic chooses per path)");
+        }
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.
         if (p.has("initial_radius") && p.has("radius")) p.failAt("radius", "give either radius or initial_radius");

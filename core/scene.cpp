@@ -77,6 +77,26 @@ void embreeError(void*, RTCError code, const char* str) {
 
 }  // namespace
 
+float meanCurvature(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& n0, const Vec3& n1, const Vec3& n2) {
+    const Vec3 p[3] = {p0, p1, p2};
+    Vec3 n[3] = {n0, n1, n2};
+    for (Vec3& v : n) {
+        const float len = glm::length(v);
+        if (!(len > 0.f) || !std::isfinite(len)) return 0.f;
+        v /= len;
+    }
+    double sum = 0.0;
+    for (int e = 0; e < 3; ++e) {
+        const int i = e, j = (e + 1) % 3;
+        const Vec3 dp = p[j] - p[i];
+        const double len2 = double(glm::dot(dp, dp));
+        if (!(len2 > 0.0)) return 0.f;
+        sum += double(glm::dot(n[j] - n[i], dp)) / len2;
+    }
+    const double h = std::abs(sum / 3.0);
+    return std::isfinite(h) ? float(h) : 0.f;
+}
+
 Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     device_ = rtcNewDevice("");
     if (!device_) throw std::runtime_error("could not create the Embree device");
@@ -158,7 +178,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
                 const Vec3 p0 = pos[i0], p1 = pos[i1], p2 = pos[i2];
                 const Vec3 ng = glm::normalize(glm::cross(p1 - p0, p2 - p0));
                 tris[t] = {p0, p1, p2, ng};
-                if (tn) tn[t] = {nrm[i0], nrm[i1], nrm[i2]};
+                if (tn) tn[t] = {nrm[i0], nrm[i1], nrm[i2], meanCurvature(p0, p1, p2, nrm[i0], nrm[i1], nrm[i2])};
                 if (tf) {
                     // What a hit computes from three equal normals, but normalising n itself
                     // (the interpolated b0 n + b1 n + b2 n differs from n by rounding only).
@@ -195,6 +215,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         rtcReleaseGeometry(g);
         if (geoms_.size() <= id) geoms_.resize(id + 1);
         geoms_[id].sphere = int(i);
+        geoms_[id].curvature = s.radius > 0.f ? 1.f / s.radius : 0.f;
         lo = glm::min(lo, s.center - Vec3(s.radius));
         hi = glm::max(hi, s.center + Vec3(s.radius));
     }
@@ -364,6 +385,7 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
     hit.light = gi.light;
     hit.deltaBsdf = gi.deltaBsdf;
     hit.roughness = gi.roughness;
+    hit.curvature = gi.curvature;
     __m128 p, ng, ns;
     const Frame* frame = nullptr;  // the triangle's constant shading frame, if it has one
     if (gi.mesh >= 0) {
@@ -379,6 +401,7 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
             __m128 n = blend3(b0, loadPadded3(tn.n0), b1, loadPadded3(tn.n1), b2, loadPadded3(tn.n2));
             float len = std::sqrt(dot3(n, n));
             if (len > 0.f && std::isfinite(len)) ns = _mm_div_ps(n, _mm_set1_ps(len));
+            hit.curvature = tn.curvature;
         }
         if constexpr (kFull) {
             if (gi.uvs) {

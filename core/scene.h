@@ -26,10 +26,13 @@ struct SurfacePoint {
     Vec3 p{0.f};
     Vec3 ng{0.f};          // geometric normal (unit, the side the shape's normal points to)
     Frame shading;         // shading frame (n = interpolated normal, flipped to ng's hemisphere side)
+    float roughness = 1.f;         // bxdf->roughness(), cached per shape (read by regularisation)
     const Bxdf* bxdf = nullptr;
     const Light* light = nullptr;  // area light on this surface, if any
     bool deltaBsdf = false;        // bxdf has only delta lobes (cached: no virtual call per vertex)
-    float roughness = 1.f;         // bxdf->roughness(), cached per shape (read by regularisation)
+    // |mean curvature| of the surface here (1/length; JG19's diffusion heuristic): 1/r on a
+    // sphere, 0 on a flat mesh, on a mesh with vertex normals the triangle's estimate (MeshTri).
+    float curvature = 0.f;
 };
 
 struct SurfaceHit : SurfacePoint {
@@ -37,6 +40,11 @@ struct SurfaceHit : SurfacePoint {
     Vec2 uv{0.f};
     int geomId = -1, primId = -1;
 };
+
+// |mean curvature| of a triangle estimated from its vertex normals: the mean over its three edges
+// of the normal curvature along the edge, (n_j - n_i) . (p_j - p_i) / |p_j - p_i|^2 (exact, 1/r,
+// for any triangle whose normals are a sphere's). 0 for a degenerate triangle.
+float meanCurvature(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& n0, const Vec3& n1, const Vec3& n2);
 
 class Scene {
 public:
@@ -107,7 +115,8 @@ private:
     // and disk) keep each triangle's shading frame instead of its normals: a hit copies it, with
     // no interpolation, normalisation or frame construction (36 bytes, as the normals).
     struct MeshTri { Vec3 p0, p1, p2, ng; };   // 48 bytes
-    struct MeshTriNormals { Vec3 n0, n1, n2; };  // 36 bytes
+    // The vertex normals, and the triangle's |mean curvature| estimated from them (meanCurvature).
+    struct MeshTriNormals { Vec3 n0, n1, n2; float curvature; };  // 40 bytes
     // What a hit needs of its shape, by Embree geomID, flat (no lookups through the description).
     struct GeomInfo {
         int mesh = -1, sphere = -1;
@@ -120,6 +129,7 @@ private:
         const Light* light = nullptr;
         bool deltaBsdf = false;
         float roughness = 1.f;
+        float curvature = 0.f;  // a sphere's 1/r
     };
     HugeVector<MeshTri> tris_;                // all meshes, in geometry order, + 1 padding record
     HugeVector<MeshTriNormals> triNormals_;   // meshes with varying vertex normals, + 1 padding record

@@ -3,6 +3,7 @@
 // +X to the image left and +Y up; area emitters emit on the side their normal points to.
 #pragma once
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 #include "bsdf/bsdf.h"
@@ -67,13 +68,14 @@ struct IntegratorDesc {
     float radius = -1.f;        // VCM/PPM initial radius (<=0: derived from scene size)
     float radiusAlpha = 0.75f;
     // Path-space regularisation (integrator parameters regularizer, reg_tau, reg_schedule, reg_mis,
-    // reg_quality; the render CLI's --reg, --reg-tau, --reg-schedule, --reg-mis, --reg-quality
-    // override them).
+    // reg_quality, reg_diffusion; the render CLI's --reg, --reg-tau, --reg-schedule, --reg-mis,
+    // --reg-quality, --reg-diffusion override them).
     std::string regularizer = "none";    // none | jg19
     double regTau = -1.0;                // <= 0: the integrator's default
     std::string regSchedule = "consistent";
     std::string regMis = "regularised";
     bool regQuality = true;              // JG19's sampler quality heuristic (reg_quality)
+    std::optional<bool> regDiffusion;    // JG19's diffusion heuristic (reg_diffusion; unset: as regQuality)
 };
 
 struct SceneDesc {

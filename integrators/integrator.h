@@ -2,6 +2,7 @@
 #pragma once
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include "core/film.h"
 #include "integrators/transport/jg19.h"
@@ -38,6 +39,10 @@ struct RenderSettings {
     std::string regSchedule = "consistent";  // consistent (JG19 Eq. 16) | fixed
     std::string regMis = "regularised";      // regularised (JG19 Eq. 13) | sampling (naive weights)
     bool regQuality = true;                  // JG19's sampler quality heuristic (Eqs. 17-18)
+    // JG19's path diffusion heuristic (Eqs. 19-21); unset: on with the quality heuristic, off
+    // without it (it scales the bound at the vertices the quality heuristic chooses; on with the
+    // quality heuristic off is an error).
+    std::optional<bool> regDiffusion;
 };
 
 // The bound tau of a regulariser's current iteration, for the statistics (0: none).

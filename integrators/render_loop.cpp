@@ -56,6 +56,11 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         else if (s.regMis == "sampling") j.mis = reg::MisDensities::Sampling;
         else throw std::invalid_argument("unknown regularisation MIS '" + s.regMis + "' (supported: regularised, sampling)");
         j.quality = s.regQuality;
+        j.diffusion = s.regDiffusion.value_or(s.regQuality);
+        if (j.diffusion && !j.quality)
+            throw std::invalid_argument("the JG19 diffusion heuristic (reg_diffusion, --reg-diffusion on) needs the quality "
+                                        "heuristic (reg_quality, --reg-quality on): it scales the bound at the vertices "
+                                        "that heuristic chooses per path");
         return makeWith(s, reg::Jg19(j));
     }
     throw std::invalid_argument("unknown regulariser '" + s.regularizer + "' (supported: none, jg19)");

@@ -88,7 +88,9 @@ TEST_CASE("bad command lines exit with 1 and name the problem", "[cli]") {
     struct Case { std::string args, words; };
     for (const Case& c : {Case{"--spp -3", "spp"}, Case{"--spp 2 --time 1", "excludes"},
                           Case{"--integrator nope", "nope"}, Case{"--no-such-flag", "no-such-flag"},
-                          Case{"-D novalue", "name=value"}, Case{"--max-depth 1000", "max-depth"}}) {
+                          Case{"-D novalue", "name=value"}, Case{"--max-depth 1000", "max-depth"},
+                          Case{"--reg jg19 --reg-quality off --reg-diffusion on", "diffusion heuristic"},
+                          Case{"--reg jg19 --reg-diffusion maybe", "reg-diffusion"}}) {
         Run r = run(scene + c.args);
         INFO(c.args << "\n" << r.output);
         CHECK(r.code == 1);

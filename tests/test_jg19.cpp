@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 #include <array>
 #include <cmath>
+#include <numbers>
 #include <vector>
 #include "core/loader.h"
 #include "integrators/integrator.h"
@@ -386,10 +387,12 @@ struct HandPath {
     }
 };
 
-reg::Jg19 fixedTau(double tau, const Scene& scene, const MisConfig& cfg) {
+// (Without the diffusion heuristic unless asked: the hand computations of q use tau itself.)
+reg::Jg19 fixedTau(double tau, const Scene& scene, const MisConfig& cfg, bool diffusion = false) {
     reg::Jg19Settings js;
     js.tau0 = tau;
     js.schedule = reg::Schedule::Fixed;
+    js.diffusion = diffusion;
     reg::Jg19 jg(js);
     jg.beginIteration(1, scene, cfg);
     return jg;
@@ -586,11 +589,16 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
     point.position = desc.spheres[0].center;
     point.value = Color(3.f);
     desc.emitters.push_back(point);
+    // With and without the diffusion heuristic: with it, the bound at each chosen vertex (tau over
+    // the spread along the path from the camera) is also the same in every split, up to float
+    // rounding of the walks' stored spreads (relative 1e-4).
+    const bool diffusion = GENERATE(false, true);
+    INFO("diffusion " << diffusion);
     Scene scene(desc);
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> y, z;
     const MisConfig cfg{TechniqueSet::Bidirectional};
-    const reg::Jg19 jg = fixedTau(30.0, scene, cfg);
+    const reg::Jg19 jg = fixedTau(30.0, scene, cfg, diffusion);
     const PathVertex cam = cameraEndpoint(scene, jg);
     int checked = 0, regularisedPaths = 0, splits = 0;
     double worst = 0.0;
@@ -620,6 +628,11 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                         if (j >= 0) Rk.push_back(j);
                     INFO("path " << i << " s=" << s << " t=" << t << " split " << k);
                     CHECK(Rk == R);
+                    for (int m = 0; m < 2 && Rk == R; ++m) {
+                        if (own.regularised[m] < 0) continue;
+                        CHECK(std::abs(other.bound[m] - own.bound[m]) <= 1e-4f * own.bound[m]);
+                        if (!diffusion) CHECK(own.bound[m] == jg.tau());
+                    }
                     bool contains = true;
                     for (int j : R) contains = contains && (j == k - 1 || j == k);
                     if (!R.empty()) CHECK(contributes == contains);
@@ -639,4 +652,112 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
     INFO(checked << " weights, " << regularisedPaths << " on regularised paths, " << splits << " splits; worst " << worst);
     CHECK(checked > 3000);
     CHECK(regularisedPaths > 100);
+}
+
+// ---- The path diffusion heuristic (jg19.h (4)) --------------------------------------------------
+
+TEST_CASE("JG19 diffusion heuristic: Eqs. 20-21, one step at a time", "[jg19][diffusion]") {
+    // Leaving a vertex with bound rho_bar, |mean curvature| h and footprint F over a segment of
+    // length d: sigma += (2 pi rho_bar)^(-1/2) + F h, then F += sigma d. Values chosen to be exact.
+    reg::Diffusion d;
+    d = d.next(1.0 / (2.0 * std::numbers::pi), 0.0, 2.0);  // a bound of 1/(2 pi): spread 1
+    CHECK(d.spread == 1.0);
+    CHECK(d.footprint == 2.0);
+    d = d.next(kInf, 0.5, 1.0);  // a delta vertex on a curved surface: only F h = 1
+    CHECK(d.spread == 2.0);
+    CHECK(d.footprint == 4.0);
+    d = d.next(0.0, 0.0, kInf);  // no BSDF bound, a segment to infinity: nothing changes
+    CHECK(d.spread == 2.0);
+    CHECK(d.footprint == 4.0);
+    d = reg::Diffusion{90.0, 100.0}.next(1.0 / (2.0 * std::numbers::pi), 1.0, 1.0);  // 191: capped
+    CHECK(d.spread == reg::Diffusion::kMaxSpread);
+    CHECK(d.footprint == 100.0 + reg::Diffusion::kMaxSpread);
+}
+
+TEST_CASE("surface curvature: 1/r on analytic and tessellated spheres, 0 on flat surfaces", "[scene][diffusion]") {
+    // The estimate from vertex normals is exact for any triangle whose normals are a sphere's.
+    const Vec3 c(0.3f, -0.2f, 1.f);
+    const float r = 0.4f;
+    const Vec3 n0 = glm::normalize(Vec3(1, 0.2f, 0.1f)), n1 = glm::normalize(Vec3(0.8f, 0.5f, 0.f)),
+               n2 = glm::normalize(Vec3(0.9f, 0.f, 0.6f));
+    CHECK(meanCurvature(c + r * n0, c + r * n1, c + r * n2, n0, n1, n2) == Approx(1.f / r).epsilon(1e-4));
+    CHECK(meanCurvature(Vec3(0.f), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(0, 0, 1)) == 0.f);
+    CHECK(meanCurvature(Vec3(0.f), Vec3(0.f), Vec3(0, 1, 0), n0, n1, n2) == 0.f);  // degenerate
+
+    // Hits: the box's analytic sphere, a tessellated one (8 x 12: exact normals at the vertices,
+    // so the per-triangle estimate is exact too), a wall.
+    SceneDesc desc = mixedScene(16);
+    const SphereDesc sphere = desc.spheres[0];
+    const MeshDesc& ball = desc.meshes.back();  // smoothSphere(centre (-0.45, -0.65, 0.2), 0.3)
+    REQUIRE(ball.name == "smooth-sphere");
+    Scene scene(desc);
+    auto hitFrom = [&](const Vec3& o, const Vec3& target) {
+        SurfaceHit h;
+        REQUIRE(scene.intersect(Ray{o, glm::normalize(target - o), 0.f, kInf}, h));
+        return h;
+    };
+    const Vec3 o = scene.camera().position();
+    CHECK(hitFrom(o, sphere.center).curvature == Approx(1.f / sphere.radius).epsilon(1e-5));
+    CHECK(hitFrom(o, Vec3(-0.45f, -0.65f, 0.2f)).curvature == Approx(1.f / 0.3f).epsilon(1e-3));
+    // The walls (flat meshes): the axis rays from inside the box that hit neither sphere.
+    int walls = 0;
+    for (int axis = 0; axis < 6; ++axis) {
+        Vec3 d(0.f);
+        d[axis / 2] = axis % 2 ? 1.f : -1.f;
+        SurfaceHit hit;
+        if (!scene.intersect(Ray{Vec3(0.f, 0.4f, -0.3f), d, 0.f, kInf}, hit)) continue;  // (the open side)
+        if (std::abs(glm::length(hit.p - sphere.center) - sphere.radius) < 1e-3f ||
+            std::abs(glm::length(hit.p - Vec3(-0.45f, -0.65f, 0.2f)) - 0.3f) < 1e-2f)
+            continue;
+        CHECK(hit.curvature == 0.f);
+        ++walls;
+    }
+    CHECK(walls >= 4);
+}
+
+TEST_CASE("JG19 diffusion heuristic: spreads along the camera walk and the bound at the regularised vertex", "[jg19][diffusion]") {
+    // L S D E on a line (a point light in glass, a diffuse vertex 0.1 below the camera), the glass
+    // on a sphere of radius 0.5 (curvature 2). From the camera: sigma_D = a = (2 pi rho_cam)^(-1/2),
+    // F_D = 0.1 a; sigma_S = a + (2 pi rho_D)^(-1/2) + F_D * 0 (the diffuse vertex is flat),
+    // F_S = F_D + 3.9 sigma_S. PT regularises the glass x_1 (NEE's light end) with tau / sigma_S;
+    // every split of the path gets the same bound (the camera walk's stored spreads, or steps
+    // across the connection and down the light subpath); a light walk stores spread -1.
+    Scene scene(mixedScene(16));
+    const double camBound = scene.camera().directionPdf(scene.camera().forward()).value;
+    const BxdfPtr diffuse = makeDiffuse(Color(0.5f)), glass = makeDielectric(1.5f);
+    Light point;
+    point.type = LightType::Point;
+    HandPath h;
+    h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &point);
+    h.add(VertexKind::Surface, Vec3(0, 0, 1), glass.get());
+    h.x.back().curvature = 2.f;
+    h.add(VertexKind::Surface, Vec3(0, 0, 4.9f), diffuse.get());
+    h.add(VertexKind::Camera, Vec3(0, 0, 5), nullptr);
+    const double a = 1.0 / std::sqrt(2.0 * std::numbers::pi * camBound);
+    const double dD = 5.0 - double(4.9f), dS = double(4.9f) - 1.0;
+    const double sigmaS = a + 1.0 / std::sqrt(2.0 * std::numbers::pi * 0.5 / std::numbers::pi), footS = a * dD + sigmaS * dS;
+    const reg::Jg19 jg = fixedTau(30.0, scene, MisConfig{TechniqueSet::PathTracer}, true);
+    Technique nee = h.technique(jg, 1);  // z = E, D, S
+    CHECK(h.z[1].regState.spread == Approx(a).epsilon(1e-6));
+    CHECK(h.z[1].regState.footprint == Approx(a * dD).epsilon(1e-5));
+    CHECK(h.z[2].regState.spread == Approx(sigmaS).epsilon(1e-6));
+    CHECK(h.z[2].regState.footprint == Approx(footS).epsilon(1e-5));
+    CHECK(h.y[0].regState.spread == -1.f);
+    REQUIRE(jg.select(nee));
+    CHECK(nee.regularised[0] == 1);
+    CHECK(nee.bound[0] == Approx(30.0 / sigmaS).epsilon(1e-5));
+    for (int s : {2, 3}) {  // S-D (the glass on the light subpath), light tracing (through it)
+        Technique other = h.technique(jg, s);
+        CHECK(jg.select(other) == (s == 2));
+        CHECK(other.regularised[0] == 1);
+        CHECK(other.bound[0] == Approx(30.0 / sigmaS).epsilon(1e-5));
+        CHECK(h.y[s - 1].regState.spread == -1.f);
+    }
+    // The diffusion makes the request looser than tau here (sigma_S > 1): a blurrier glass.
+    CHECK(sigmaS > 1.0);
+    // Without the heuristic: tau itself.
+    const reg::Jg19 off = fixedTau(30.0, scene, MisConfig{TechniqueSet::PathTracer}, false);
+    Technique plainNee = h.technique(off, 1);
+    REQUIRE(off.select(plainNee));
+    CHECK(plainNee.bound[0] == 30.f);
 }

@@ -495,12 +495,14 @@ TEST_CASE("configurations: --reg and its knobs reach the settings, bad values ar
     CHECK(s.regSchedule == "fixed");
     CHECK(s.regMis == "sampling");
     CHECK_FALSE(s.regQuality);
-    s = makeSettings(desc, parseConfig("vcm --reg-tau 500 --reg-quality on"), 1, 3);
+    CHECK_FALSE(s.regDiffusion.has_value());  // (as the quality heuristic: off)
+    s = makeSettings(desc, parseConfig("vcm --reg-tau 500 --reg-quality on --reg-diffusion off"), 1, 3);
     CHECK(s.regularizer == "none");  // the scene's
     CHECK(s.regTau == 500.0);
     CHECK(s.regQuality);
+    CHECK(s.regDiffusion == false);
     for (const char* bad : {"pt --reg kd99", "pt --reg-tau 0.1", "pt --reg-tau x", "pt --reg-schedule sometimes",
-                            "pt --reg-mis maybe", "pt --reg-quality yes"}) {
+                            "pt --reg-mis maybe", "pt --reg-quality yes", "pt --reg-diffusion yes"}) {
         INFO(bad);
         CHECK_THROWS_AS(parseConfig(bad), std::invalid_argument);
     }

@@ -130,6 +130,8 @@ RunConfig parseConfig(const std::string& spec) {
             c.regMis = oneOf(spec, opt, val, kRegMisNames);
         } else if (opt == "--reg-quality") {
             c.regQuality = oneOf(spec, opt, val, {"on", "off"}) == "on";
+        } else if (opt == "--reg-diffusion") {
+            c.regDiffusion = oneOf(spec, opt, val, {"on", "off"}) == "on";
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;
@@ -206,10 +208,11 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     s.regSchedule = c.regSchedule.value_or(desc.integrator.regSchedule);
     s.regMis = c.regMis.value_or(desc.integrator.regMis);
     s.regQuality = c.regQuality.value_or(desc.integrator.regQuality);
+    s.regDiffusion = c.regDiffusion ? c.regDiffusion : desc.integrator.regDiffusion;
     if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
         throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
                                                     "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --reg, --reg-tau, "
-                                                    "--reg-schedule, --reg-mis, --reg-quality, --label)",
+                                                    "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --label)",
                                                     c.spec, c.extra.begin()->first));
     return s;
 }

@@ -33,10 +33,11 @@ struct RunConfig {
     std::optional<int> maxDepth, rrDepth;
     std::optional<bool> hideEmitters;
     std::optional<double> radius, radiusAlpha;
-    // Regularisation, as render's --reg, --reg-tau, --reg-schedule, --reg-mis, --reg-quality.
+    // Regularisation, as render's --reg, --reg-tau, --reg-schedule, --reg-mis, --reg-quality,
+    // --reg-diffusion.
     std::optional<std::string> regularizer, regSchedule, regMis;
     std::optional<double> regTau;
-    std::optional<bool> regQuality;
+    std::optional<bool> regQuality, regDiffusion;
     std::map<std::string, std::string> extra;
 };
 

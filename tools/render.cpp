@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
                    "BPT/VCM/LT/PPM: write each technique's weighted contribution (s_t.exr, merge_s.exr) to this directory");
     app.add_option("--pt-strategy", ptStrategy, "PT techniques: mis (default), nee, bsdf")
         ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
-    std::string regularizer, regSchedule, regMis, regQuality;
+    std::string regularizer, regSchedule, regMis, regQuality, regDiffusion;
     double regTau = -1.0;
     app.add_option("--reg", regularizer, "Path-space regulariser: none (default), jg19 (overrides the scene's)")
         ->check(CLI::IsMember(kRegularizerNames));
@@ -73,6 +73,12 @@ int main(int argc, char** argv) {
                    "JG19 sampler quality heuristic (Eqs. 17-18): on (default; a path an unbiased technique samples "
                    "well is not regularised, the others at one connection chosen per path) or off (every technique "
                    "at its own ends: counts light twice where an unbiased technique also reaches it)")
+        ->check(CLI::IsMember({"on", "off"}));
+    app.add_option("--reg-diffusion", regDiffusion,
+                   "JG19 path diffusion heuristic (Eqs. 19-21): the bound at a regularised vertex is tau / sigma, "
+                   "sigma the angular spread along the path from the camera (BSDF bounds and surface curvature): "
+                   "sharper near the camera, blurrier after rough bounces. on (default with --reg-quality on) or off; "
+                   "it needs the quality heuristic")
         ->check(CLI::IsMember({"on", "off"}));
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
@@ -134,6 +140,7 @@ int main(int argc, char** argv) {
     settings.regSchedule = !regSchedule.empty() ? regSchedule : desc.integrator.regSchedule;
     settings.regMis = !regMis.empty() ? regMis : desc.integrator.regMis;
     settings.regQuality = !regQuality.empty() ? regQuality == "on" : desc.integrator.regQuality;
+    settings.regDiffusion = !regDiffusion.empty() ? std::optional<bool>(regDiffusion == "on") : desc.integrator.regDiffusion;
 
     if (settings.regularizer == "jg19" && !settings.regQuality)
         fmt::print(stderr, "warning: --reg jg19 --reg-quality off regularises every technique at its own ends: "
@@ -212,6 +219,7 @@ int main(int argc, char** argv) {
             j["reg_schedule"] = settings.regSchedule;
             j["reg_mis"] = settings.regMis;
             j["reg_quality"] = settings.regQuality;
+            j["reg_diffusion"] = settings.regDiffusion.value_or(settings.regQuality);
             j["reg_tau_last"] = stats.tau;
             j["contributions"] = stats.contributions;
             j["regularised_contributions"] = stats.regularisedContributions;

@@ -1,6 +1,8 @@
 #include "integrators/transport/jg19.h"
 
+#include <array>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include "bsdf/roughness_bound.h"
@@ -17,6 +19,21 @@ Jg19::Jg19(const Jg19Settings& settings) : settings_(settings) {
 void Jg19::setIteration(uint64_t n) {
     const double tau = settings_.schedule == Schedule::Consistent ? consistentTau(settings_.tau0, n) : settings_.tau0;
     radiance_.reg.tau = importance_.reg.tau = float(tau);  // (beyond FLT_MAX: +inf, no regularisation)
+    setLimits();
+}
+
+void Jg19::setLimits() {
+    loosest_ = radiance_;
+    if (diffusion()) loosest_.reg.tau = float(double(radiance_.reg.tau) / Diffusion::kMaxSpread);  // (4)
+}
+
+Diffusion Diffusion::next(double rhoBar, double h, double d) const {
+    Diffusion out = *this;
+    if (rhoBar > 0.0 && std::isfinite(rhoBar)) out.spread += 1.0 / std::sqrt(2.0 * std::numbers::pi * rhoBar);
+    if (std::isfinite(h)) out.spread += footprint * h;
+    out.spread = std::min(out.spread, kMaxSpread);
+    if (std::isfinite(d)) out.footprint += out.spread * d;
+    return out;
 }
 
 void Jg19::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) {
@@ -49,7 +66,19 @@ void Jg19::surfaceBounds(const PathVertex& v, float& plain, float& regularised) 
         return;
     }
     plain = v.bxdf->valueBound(kRadianceContext);
-    regularised = v.bxdf->valueBound(radiance_);
+    if (!diffusion()) {
+        regularised = v.bxdf->valueBound(radiance_);
+        return;
+    }
+    // (4): the ceiling. A rough lobe changes under any bound below its own; a delta one under a
+    // bound that makes it rough at least at kMinAlpha (none: an index-matched dielectric).
+    regularised = plain;
+    if (v.deltaBsdf) {
+        BsdfContext smoothest(TransportMode::Radiance);
+        smoothest.reg.minAlpha = {kMinAlpha, kMinAlpha};
+        const float c = v.bxdf->valueBound(smoothest);
+        regularised = std::isfinite(c) ? c : 0.f;
+    }
 }
 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {
@@ -101,6 +130,7 @@ bool Jg19::select(Technique& tech) const {
     if (!settings_.quality) {  // (3): every technique at its own ends
         tech.regularised[0] = path.lightEnd;
         tech.regularised[1] = path.cameraEnd;
+        tech.bound[0] = tech.bound[1] = radiance_.reg.tau;
         return true;
     }
     // Nothing the request changes on this path: unregularised (the common case, O(1)).
@@ -133,10 +163,36 @@ bool Jg19::select(Technique& tech) const {
     double dPath = std::isfinite(joinLength) ? joinLength : 0.0;
     if (tech.t >= 1) dPath += runningLength(tech.z[tech.t - 1], tech.t >= 2 ? &tech.z[tech.t - 2] : nullptr);
     if (path.lightCount >= 1) dPath += double(tech.y[path.lightCount - 1].pathLength);
-    auto bound = [&](int j, bool reg) -> double {
+    const double tau = double(radiance_.reg.tau);
+    auto plainBound = [&](int j) -> double {
         const PathVertex& v = path.vertex(j);
         if (j == 0 && tech.s == 0) return lightBound(*v.light);  // the emitter a camera walk hit
-        return reg ? v.regState.rhoBarReg : v.regState.rhoBar;
+        return v.regState.rhoBar;
+    };
+    // The bound tau' of the request at each vertex: tau, or with the diffusion heuristic tau /
+    // sigma_j along the view sub-path (4), and the regularised bounds under it: the camera
+    // subpath's spreads from its walk, then across the connection and down the light subpath.
+    std::array<float, kMaxPathVertices> taus;
+    std::array<double, kMaxPathVertices> regBounds;
+    if (diffusion()) {
+        const int firstCamera = path.isMerge ? path.lightCount : path.lightCount;  // x index of z[t-1]
+        Diffusion d;
+        for (int j = n - 1; j >= 0; --j) {
+            const PathVertex& v = path.vertex(j);
+            if (j >= firstCamera) {
+                d = Diffusion{v.regState.spread, v.regState.footprint};
+            } else {
+                const PathVertex& from = path.vertex(j + 1);
+                d = d.next(plainBound(j + 1), double(from.curvature), segment(j));
+            }
+            taus[j] = boundAt(d.spread);
+            const double plain = plainBound(j);
+            regBounds[j] = path.inner(j) && double(taus[j]) < double(v.regState.rhoBarReg) ? double(taus[j]) : plain;
+        }
+    }
+    auto bound = [&](int j, bool reg) -> double {
+        if (!reg) return plainBound(j);
+        return diffusion() ? regBounds[j] : double(path.vertex(j).regState.rhoBarReg);
     };
     // The connection term of Eq. 17 (q's quantity) for bounds ra, rb over segment length dj.
     auto connectionTerm = [&](double ra, double rb, double dj) {
@@ -184,7 +240,6 @@ bool Jg19::select(Technique& tech) const {
             consider(bound(i, false) * scale, bound(i, true) * scale, 0.0, i, -1);
         }
     }
-    const double tau = double(radiance_.reg.tau);
     // Eq. 18: a good unbiased sampler (or none better with the bound): no regularisation. A
     // technique connecting at a vertex that stays a delta then has nothing to add.
     if (q < tau * tau || !(best < q)) {
@@ -194,7 +249,10 @@ bool Jg19::select(Technique& tech) const {
     }
     int m = 0;
     for (int j : {bestA, bestB})
-        if (j >= 0 && bound(j, true) < bound(j, false)) tech.regularised[m++] = j;
+        if (j >= 0 && bound(j, true) < bound(j, false)) {
+            tech.bound[m] = diffusion() ? taus[j] : radiance_.reg.tau;
+            tech.regularised[m++] = j;
+        }
     return containsRegularised(tech, path.lightEnd, path.cameraEnd);
 }
 

@@ -50,8 +50,28 @@
 //     MisDensities::Sampling (--reg-mis sampling) keeps the sampling densities p_k (JG19 Fig. 3a:
 //     the naive weights), with the same rule for singular vertices. This mode counts light twice
 //     as described in (2); it is kept for the paper's comparisons.
-// Not yet here (issue 13): the diffusion heuristic (Eqs. 19-21), merges on delta surfaces
-// (photons are stored on non-delta surfaces only).
+// (4) The path diffusion heuristic (Sec. 3.5.2, Eqs. 19-21; with the quality heuristic, on by
+//     default): the request at a regularised vertex x_j is tau' = tau / sigma_j (Eq. 19), sigma_j
+//     the angular spread of the segment arriving at x_j along the view sub-path, i.e. the path
+//     from the camera x_{n-1} to x_j whichever subpaths sampled it: a function of the path, as
+//     the quality heuristic's choice is, so every technique still estimates one integrand. From
+//     the camera (sigma = footprint = 0), leaving vertex x_k (bound rho_bar_k, |mean curvature|
+//     H_k, footprint F_k) over the segment of length d to the next vertex:
+//       sigma' = sigma + (2 pi rho_bar_k)^(-1/2) + F_k H_k     (Eq. 21)
+//       F'     = F_k + sigma' d                                 (Eq. 20)
+//     (Eq. 20 as written multiplies d by the spread of the previous segment; we use the spread of
+//     the segment d measures. A delta vertex adds no spread; |H| makes curvature spread a beam
+//     either way, where a concave mirror would focus it: the 2D model has no sign for that.)
+//     The camera walk carries sigma and F on its vertices (SubpathState::spread, footprint), so
+//     select() steps only across the connection and down the light subpath. The request changes
+//     a vertex when tau' is below its ceiling (SubpathState::rhoBarReg: rho_bar for a rough lobe,
+//     the bound at alpha = kMinAlpha for a delta one, 0 for a diffuse one), and the heuristic's
+//     regularised bound there is tau' (the lobe's exact bound, valueBound, differs only where
+//     alpha_hat(tau') would exceed 1). The camera walk counts the vertices its tau' changes; a
+//     light walk, which does not know the camera side, those the smallest tau' can change: the
+//     spread is capped at Diffusion::kMaxSpread = 100 rad (ours; a spread of radians is all
+//     directions already), so tau' >= tau / 100 (also what connectible() uses).
+// Not yet here (issue 13): merges on delta surfaces (photons are stored on non-delta surfaces only).
 #pragma once
 #include <cstdint>
 #include "integrators/transport/path.h"
@@ -66,6 +86,17 @@ struct Jg19Settings {
     Schedule schedule = Schedule::Consistent;
     MisDensities mis = MisDensities::Regularised;  // (without the quality heuristic only: (3))
     bool quality = true;                           // the sampler quality heuristic, (2)
+    bool diffusion = true;                         // the path diffusion heuristic, (4) (with quality only)
+};
+
+// One step of (4): the spread and footprint arriving at the next vertex, leaving a vertex with
+// bound rhoBar (+inf: a delta, 0: none) and |mean curvature| h, over a segment of length d.
+struct Diffusion {
+    // The spread is capped: a spread of radians is all directions already, and with the cap the
+    // loosest bound a vertex can get, tau / kMaxSpread, is known before any path (connectible).
+    static constexpr double kMaxSpread = 100.0;
+    double spread = 0.0, footprint = 0.0;  // sigma (radians), F (length)
+    Diffusion next(double rhoBar, double h, double d) const;
 };
 
 class Jg19 {
@@ -80,12 +111,17 @@ public:
     void setIteration(uint64_t n);
     float tau() const { return radiance_.reg.tau; }
 
-    // (1) The request at the vertices select() chose.
-    const BsdfContext& context(const Technique& tech, End end) const {
+    // (1) The request at the vertices select() chose, with their bounds.
+    BsdfContext context(const Technique& tech, End end) const {
         const int j = end == End::Light || tech.photon ? tech.s - 1 : tech.s;  // the end's x index
-        const bool on = j >= 0 && (tech.regularised[0] == j || tech.regularised[1] == j);
-        if (end == End::Light) return on ? importance_ : kImportanceContext;
-        return on ? radiance_ : kRadianceContext;
+        const TransportMode mode = end == End::Light ? TransportMode::Importance : TransportMode::Radiance;
+        for (int m = 0; m < 2; ++m)
+            if (j >= 0 && tech.regularised[m] == j) {
+                BsdfContext c = end == End::Light ? importance_ : radiance_;
+                c.reg.tau = tech.bound[m];
+                return c;
+            }
+        return BsdfContext(mode);
     }
     // (2), (5)
     bool select(Technique& tech) const;
@@ -101,6 +137,10 @@ public:
     void start(PathVertex& v) const {
         v.regState = SubpathState{};
         v.regState.rhoBar = v.regState.rhoBarReg = endpointBound(v);
+        if (diffusion()) {
+            v.regState.rhoBarReg = 0.f;  // (no BSDF: nothing to change)
+            v.regState.spread = v.kind == VertexKind::Camera ? 0.f : -1.f;
+        }
     }
     void extend(PathVertex& v, PathVertex& prev) const {
         SubpathState& st = v.regState;
@@ -108,7 +148,21 @@ public:
         if (settings_.quality) {
             st.accumulated = 0.f;
             surfaceBounds(v, st.rhoBar, st.rhoBarReg);
-            st.changeable = prev.regState.changeable + (st.rhoBarReg < st.rhoBar ? 1.f : 0.f);
+            if (!diffusion()) {
+                st.changeable = prev.regState.changeable + (st.rhoBarReg < st.rhoBar ? 1.f : 0.f);
+                return;
+            }
+            const SubpathState& p = prev.regState;
+            float tauHere = loosest_.reg.tau;  // (a light subpath: the smallest tau')
+            st.spread = -1.f;
+            st.footprint = 0.f;
+            if (p.spread >= 0.f) {
+                const Diffusion d = Diffusion{p.spread, p.footprint}.next(p.rhoBar, prev.curvature, v.segmentLength);
+                st.spread = float(d.spread);
+                st.footprint = float(d.footprint);
+                tauHere = boundAt(d.spread);
+            }
+            st.changeable = p.changeable + (tauHere < st.rhoBarReg ? 1.f : 0.f);
             return;
         }
         const float r = ratioAt(prev, -v.wo);
@@ -116,17 +170,18 @@ public:
         st.accumulated = prev.regState.accumulated + (r != 1.f && r < kInf ? 1.f : 0.f);
         st.rhoBar = st.rhoBarReg = st.changeable = 0.f;
     }
-    // (4) Any surface vertex with a BSDF that is not still a delta under tau_n.
+    // (4) Any surface vertex with a BSDF that is not still a delta under the smallest bound a
+    // vertex can get (tau_n; with the diffusion heuristic tau_n / Diffusion::kMaxSpread).
     bool connectible(const PathVertex& v) const {
         if (v.connectible()) return true;
-        return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && !v.bxdf->deltaUnder(radiance_);
+        return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && !v.bxdf->deltaUnder(loosest_);
     }
 
     // rho_hat / rho of v's BSDF between v.wo and wi (1 where nothing changes, +inf where rho is a
     // delta or 0 and rho_hat is not).
     float ratioAt(const PathVertex& v, const Vec3& wi) const;
     // rho_bar of a light's directional emission (see (2)), and of a surface vertex's BSDF without
-    // and with the iteration's request (0 without a BSDF).
+    // and with the iteration's request (0 without a BSDF; with diffusion, the ceiling of (4)).
     static float lightBound(const Light& light);
     void surfaceBounds(const PathVertex& v, float& plain, float& regularised) const;
 
@@ -136,7 +191,15 @@ private:
         if (v.kind == VertexKind::Camera) return cameraBound_;
         return v.light ? lightBound(*v.light) : 0.f;
     }
+    bool diffusion() const { return settings_.quality && settings_.diffusion; }
+    void setLimits();  // loosest_ from tau_n
+    // tau' = tau_n / sigma (Eq. 19).
+    float boundAt(double spread) const {
+        return spread > 0.0 ? float(double(radiance_.reg.tau) / spread) : radiance_.reg.tau;
+    }
     BsdfContext radiance_{TransportMode::Radiance}, importance_{TransportMode::Importance};
+    // The smallest bound a vertex gets: tau_n, or tau_n / kMaxSpread with diffusion ((4), connectible).
+    BsdfContext loosest_{TransportMode::Radiance};
     // The quality heuristic's view of the running integrator (beginIteration).
     float cameraBound_ = 1.f;
     TechniqueSet set_ = TechniqueSet::Bidirectional;

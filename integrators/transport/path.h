@@ -112,6 +112,7 @@ struct PathVertex : SurfacePoint {
         light = l;
         deltaBsdf = false;
         roughness = rough;
+        curvature = 0.f;
     }
 
     bool onSurface() const { return kind == VertexKind::Surface || (kind == VertexKind::Light && ng != Vec3(0.f)); }

@@ -74,19 +74,23 @@ struct Photon;
 struct MisConfig;
 class Scene;
 
-// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Five floats: the
-// record is 160 bytes with them (144 with one, which fit the tail padding). A regulariser that
-// needs more (JG19's 2D diffusion) widens it here.
+// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Seven floats: the
+// record is 168 bytes with them (160 with five, 144 with one, which fit the tail padding).
 struct SubpathState {
     float accumulated = 0.f;  // (JG19: the number of vertices before this one whose ratio is finite, not 1)
     // JG19: rho_hat / rho at this vertex, between its two neighbours on its own subpath (written
     // when the walk extends past it; +inf when rho is 0 or a delta: a "singular" vertex).
     float ratio = 1.f;
     // JG19's quality heuristic: rho_bar of this vertex (its BSDF's bound, Bxdf::valueBound, or an
-    // endpoint's bound on its directional density), without and with the iteration's request,
-    // and the number of vertices of the subpath up to this one where the two differ.
+    // endpoint's bound on its directional density), without and with the iteration's request
+    // (with the diffusion heuristic: the largest bound under which the request changes the BSDF,
+    // 0 if none does), and the number of vertices of the subpath up to this one that the request
+    // changes (may change, on a light subpath under the diffusion heuristic).
     float rhoBar = 0.f, rhoBarReg = 0.f;
     float changeable = 0.f;
+    // JG19's diffusion heuristic on a camera subpath: the angular spread of the segment arriving
+    // here and the footprint here (jg19.h (4)); spread -1 on a light subpath.
+    float spread = 0.f, footprint = 0.f;
 };
 
 // The vertices of the technique that connect, emitterHit or merge evaluates.
@@ -101,8 +105,10 @@ struct Technique {
     // request; +inf when rho is 0 or a delta). Written by connect and merge before densities().
     float ratioLight = 1.f, ratioCamera = 1.f;
     // The x indices (path.h: x_0 the light end) of the vertices of this path that the policy
-    // regularises (regularizer.h (5); -1: none), written by select().
+    // regularises (regularizer.h (5); -1: none), written by select(), and the bound tau of the
+    // request at each (a policy whose request varies per vertex: JG19's diffusion heuristic).
     int regularised[2] = {-1, -1};
+    float bound[2] = {kInf, kInf};
 };
 
 // The two ends of a technique's connection.
