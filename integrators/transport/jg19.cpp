@@ -152,10 +152,24 @@ bool Jg19::select(Technique& tech) const {
         const PathVertex &a = path.vertex(join), &b = path.vertex(join + 1);
         joinLength = a.infinite || b.infinite ? kInf : double(glm::length(a.p - b.p));
     }
-    auto segment = [&](int j) -> double {
-        if (j == join) return joinLength;
-        return j < join ? double(tech.y[j + 1].segmentLength) : double(tech.z[n - 1 - j].segmentLength);
-    };
+    // The path's vertices, segment lengths d_j and bounds, gathered once (the loops below read
+    // each several times).
+    std::array<const PathVertex*, kMaxPathVertices> xs;
+    std::array<double, kMaxPathVertices> seg, plainB, regB;
+    std::array<float, kMaxPathVertices> taus;  // tau' at each vertex (diffusion)
+    for (int j = 0; j < n; ++j) xs[j] = &path.vertex(j);
+    for (int j = 0; j + 1 < n; ++j)
+        seg[j] = j == join ? joinLength
+                           : double(j < join ? tech.y[j + 1].segmentLength : tech.z[n - 1 - j].segmentLength);
+    for (int j = 0; j < n; ++j) {
+        if (j == 0 && tech.s == 0) {
+            plainB[j] = regB[j] = lightBound(*xs[j]->light);  // the emitter a camera walk hit
+        } else {
+            plainB[j] = xs[j]->regState.rhoBar;
+            regB[j] = xs[j]->regState.rhoBarReg;
+        }
+    }
+    auto segment = [&](int j) -> double { return seg[j]; };
     auto runningLength = [](const PathVertex& v, const PathVertex* before) -> double {
         if (v.infinite) return before ? double(before->pathLength) : 0.0;  // (the camera walk's escape)
         return double(v.pathLength);
@@ -164,36 +178,21 @@ bool Jg19::select(Technique& tech) const {
     if (tech.t >= 1) dPath += runningLength(tech.z[tech.t - 1], tech.t >= 2 ? &tech.z[tech.t - 2] : nullptr);
     if (path.lightCount >= 1) dPath += double(tech.y[path.lightCount - 1].pathLength);
     const double tau = double(radiance_.reg.tau);
-    auto plainBound = [&](int j) -> double {
-        const PathVertex& v = path.vertex(j);
-        if (j == 0 && tech.s == 0) return lightBound(*v.light);  // the emitter a camera walk hit
-        return v.regState.rhoBar;
-    };
-    // The bound tau' of the request at each vertex: tau, or with the diffusion heuristic tau /
-    // sigma_j along the view sub-path (4), and the regularised bounds under it: the camera
-    // subpath's spreads from its walk, then across the connection and down the light subpath.
-    std::array<float, kMaxPathVertices> taus;
-    std::array<double, kMaxPathVertices> regBounds;
+    // With the diffusion heuristic, the bound tau' of the request at each vertex is tau / sigma_j
+    // along the view sub-path (4), and the regularised bounds are under it: the camera subpath's
+    // spreads from its walk, then across the connection and down the light subpath.
     if (diffusion()) {
-        const int firstCamera = path.isMerge ? path.lightCount : path.lightCount;  // x index of z[t-1]
+        const int firstCamera = path.lightCount;  // x index of z[t-1] (a merge's too)
         Diffusion d;
         for (int j = n - 1; j >= 0; --j) {
-            const PathVertex& v = path.vertex(j);
-            if (j >= firstCamera) {
-                d = Diffusion{v.regState.spread, v.regState.footprint};
-            } else {
-                const PathVertex& from = path.vertex(j + 1);
-                d = d.next(plainBound(j + 1), double(from.curvature), segment(j));
-            }
+            const PathVertex& v = *xs[j];
+            if (j >= firstCamera) d = Diffusion{v.regState.spread, v.regState.footprint};
+            else d = d.next(plainB[j + 1], double(xs[j + 1]->curvature), seg[j]);
             taus[j] = boundAt(d.spread);
-            const double plain = plainBound(j);
-            regBounds[j] = path.inner(j) && double(taus[j]) < double(v.regState.rhoBarReg) ? double(taus[j]) : plain;
+            regB[j] = path.inner(j) && double(taus[j]) < double(v.regState.rhoBarReg) ? double(taus[j]) : plainB[j];
         }
     }
-    auto bound = [&](int j, bool reg) -> double {
-        if (!reg) return plainBound(j);
-        return diffusion() ? regBounds[j] : double(path.vertex(j).regState.rhoBarReg);
-    };
+    auto bound = [&](int j, bool reg) -> double { return reg ? regB[j] : plainB[j]; };
     // The connection term of Eq. 17 (q's quantity) for bounds ra, rb over segment length dj.
     auto connectionTerm = [&](double ra, double rb, double dj) {
         if (ra == 0.0 || rb == 0.0) return 0.0;
