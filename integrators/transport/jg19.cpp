@@ -146,18 +146,18 @@ bool Jg19::select(Technique& tech) const {
     // subpaths measured here), and d_path (Eq. 17) from their running sums. A segment to a vertex
     // at infinity (or the light walk's first segment from a light at infinity, recorded as 0) is
     // left out of d_path, and its connection compared without the distance factor.
-    const int join = path.lightCount - 1;  // the segment x_join - x_{join+1} joins the subpaths
-    double joinLength = 0.0;
-    if (join >= 0) {
-        const PathVertex &a = path.vertex(join), &b = path.vertex(join + 1);
-        joinLength = a.infinite || b.infinite ? kInf : double(glm::length(a.p - b.p));
-    }
     // The path's vertices, segment lengths d_j and bounds, gathered once (the loops below read
     // each several times).
     std::array<const PathVertex*, kMaxPathVertices> xs;
     std::array<double, kMaxPathVertices> seg, plainB, regB;
     std::array<float, kMaxPathVertices> taus;  // tau' at each vertex (diffusion)
     for (int j = 0; j < n; ++j) xs[j] = &path.vertex(j);
+    const int join = path.lightCount - 1;  // the segment x_join - x_{join+1} joins the subpaths
+    double joinLength = 0.0;
+    if (join >= 0) {
+        const PathVertex &a = *xs[join], &b = *xs[join + 1];
+        joinLength = a.infinite || b.infinite ? kInf : double(glm::length(a.p - b.p));
+    }
     for (int j = 0; j + 1 < n; ++j)
         seg[j] = j == join ? joinLength
                            : double(j < join ? tech.y[j + 1].segmentLength : tech.z[n - 1 - j].segmentLength);
@@ -169,7 +169,6 @@ bool Jg19::select(Technique& tech) const {
             regB[j] = xs[j]->regState.rhoBarReg;
         }
     }
-    auto segment = [&](int j) -> double { return seg[j]; };
     auto runningLength = [](const PathVertex& v, const PathVertex* before) -> double {
         if (v.infinite) return before ? double(before->pathLength) : 0.0;  // (the camera walk's escape)
         return double(v.pathLength);
@@ -207,7 +206,7 @@ bool Jg19::select(Technique& tech) const {
     };
     for (int k = 1; k < n; ++k) {  // connection technique k: x_{k-1} - x_k
         if (!allowsTechnique(set_, k, n - k)) continue;
-        const double dk = segment(k - 1);
+        const double dk = seg[k - 1];
         consider(connectionTerm(bound(k - 1, false), bound(k, false), dk),
                  connectionTerm(bound(k - 1, true), bound(k, true), dk), dk, k - 1, k);
     }
@@ -217,15 +216,15 @@ bool Jg19::select(Technique& tech) const {
     // and its relative variance ~ 1 / P plays the connection term's part. Without it a light seen
     // in a mirror (E S L, which the camera walk samples as well as a pixel) would be blurred.
     if (allowsTechnique(set_, 0, n) && n >= 2) {
-        const PathVertex& x0 = path.vertex(0);
+        const PathVertex& x0 = *xs[0];
         double hitProbability = 0.0;
         if (x0.light && x0.light->type == LightType::Constant) {
             hitProbability = 1.0;
-        } else if (x0.light && x0.light->type == LightType::Area && std::isfinite(segment(0)) && segment(0) > 0.0) {
-            double D = segment(0);
+        } else if (x0.light && x0.light->type == LightType::Area && std::isfinite(seg[0]) && seg[0] > 0.0) {
+            double D = seg[0];
             int k = 1;
-            while (k < n - 1 && std::isinf(bound(k, false)) && std::isfinite(segment(k))) D += segment(k++);
-            const Vec3 toX1 = glm::normalize(path.vertex(1).p - x0.p);
+            while (k < n - 1 && std::isinf(bound(k, false)) && std::isfinite(seg[k])) D += seg[k++];
+            const Vec3 toX1 = glm::normalize(xs[1]->p - x0.p);
             const double cosL = std::abs(glm::dot(x0.ng, toX1));
             hitProbability = std::min(1.0, bound(k, false) * x0.light->area * cosL / sqr(D));
         }
@@ -235,7 +234,7 @@ bool Jg19::select(Technique& tech) const {
     if (merging_ && mergeDensity_ > 0.0) {
         const double scale = sqr(dPath) / mergeDensity_;
         for (int i = 1; i + 1 < n; ++i) {  // the merge at x_i (photons lie on non-delta surfaces)
-            if (!path.vertex(i).connectible()) continue;
+            if (!xs[i]->connectible()) continue;
             consider(bound(i, false) * scale, bound(i, true) * scale, 0.0, i, -1);
         }
     }
@@ -243,7 +242,7 @@ bool Jg19::select(Technique& tech) const {
     // technique connecting at a vertex that stays a delta then has nothing to add.
     if (q < tau * tau || !(best < q)) {
         for (int j : {path.lightEnd, path.cameraEnd})
-            if (j >= 0 && !path.vertex(j).connectible()) return false;
+            if (j >= 0 && !xs[j]->connectible()) return false;
         return true;
     }
     int m = 0;

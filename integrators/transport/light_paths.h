@@ -20,7 +20,7 @@ struct VertexPdfs {
 
 class LightPathStore {
 public:
-    // Appended chunks, concatenated in order (below).
+    // The paths one chunk of work built, in order (assign concatenates the chunks).
     struct Chunk {
         std::vector<PathVertex> vertices;
         std::vector<uint32_t> counts;

@@ -63,6 +63,14 @@ inline bool requestCanChange(const PathVertex& v, const BsdfContext& ctx) {
     return !(v.deltaBsdf && v.bxdf->deltaUnder(ctx));
 }
 
+// The densities of an evaluation of v's BSDF as a walk would have them: times v's continuation
+// probability ("Russian roulette", path.h; the walk itself applies it to its samples).
+inline void applyContinuation(BsdfEval& e, const Bxdf& b) {
+    const float cont = b.continuation();
+    e.pdfFwd.value *= cont;
+    e.pdfRev.value *= cont;
+}
+
 // A connection (or merge) vertex's BSDF towards wi, evaluated with the technique's context
 // (regularizer.h (1)): the value is the regularised one, the densities stay those of the
 // material's own BSDF, which is what the walks sample (a request changes a technique's density in
@@ -77,9 +85,7 @@ inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const Bsdf
         e.f = v.bsdf().eval(v.wo, wi, ctx).f;
         ratio = regularisedRatio(e.f, plain);
     }
-    const float cont = v.bxdf->continuation();
-    e.pdfFwd.value *= cont;
-    e.pdfRev.value *= cont;
+    applyContinuation(e, *v.bxdf);
     return e;
 }
 

@@ -30,9 +30,7 @@ static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfC
         case VertexKind::Surface:
             if (!prev.delta && prev.bxdf) {
                 BsdfEval e = prev.bsdf().eval(prev.wo, d, ctx);
-                const float cont = prev.bxdf->continuation();  // the roulette at prev ("Russian roulette", path.h)
-                e.pdfFwd.value *= cont;
-                e.pdfRev.value *= cont;
+                detail::applyContinuation(e, *prev.bxdf);  // the roulette at prev
                 if (e.pdfFwd.value > 0.f) pdfFwd = e.pdfFwd;
                 if (i >= 2 && e.pdfRev.value > 0.f)
                     path[i - 2].*rev = convertDensity(e.pdfRev, path[i - 2], prev.wo, sqr(prev.segmentLength));
