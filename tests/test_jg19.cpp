@@ -418,6 +418,18 @@ TEST_CASE("JG19 quality heuristic: q (Eq. 17) and the regularised vertex equal h
     area.type = LightType::Area;
     area.area = 1e-8f;  // (a hit probability of ~3e-5 from the glossy vertex: the hit is not the best)
     const MisConfig bpt{TechniqueSet::Bidirectional}, pt{TechniqueSet::PathTracer};
+    // Every choice also made by the plain loop over the path (select() may answer from the
+    // subpaths' running minima): the same answer, vertices and bounds.
+    auto selectBoth = [](const reg::Jg19& jg, Technique& tech) {
+        Technique loop = tech;
+        const bool answer = jg.select(tech);
+        CHECK(jg.selectByLoop(loop) == answer);
+        for (int m = 0; m < 2; ++m) {
+            CHECK(loop.regularised[m] == tech.regularised[m]);
+            CHECK(loop.bound[m] == tech.bound[m]);
+        }
+        return answer;
+    };
 
     SECTION("point light in glass, L S D E: BPT samples it (light tracing), PT regularises the glass") {
         HandPath h;
@@ -432,25 +444,25 @@ TEST_CASE("JG19 quality heuristic: q (Eq. 17) and the regularised vertex equal h
         for (double f : {0.999, 1.001}) {
             const reg::Jg19 jg = fixedTau(std::sqrt(q) * f, scene, bpt);
             Technique lt = h.technique(jg, 3);  // s = 3, t = 1
-            const bool contributes = jg.select(lt);
+            const bool contributes = selectBoth(jg, lt);
             if (f < 1.0) {  // q >= tau^2: regularised at the glass, x_1 (D is diffuse: unchanged)
                 CHECK(lt.regularised[0] == 1);
                 CHECK(lt.regularised[1] == -1);
                 CHECK(!contributes);  // light tracing walks through the glass: weight 0
                 Technique sd = h.technique(jg, 2);  // the connection S-D
-                CHECK(jg.select(sd));
+                CHECK(selectBoth(jg, sd));
             } else {
                 CHECK(contributes);
                 CHECK(lt.regularised[0] == -1);
                 CHECK(lt.regularised[1] == -1);
                 Technique nee = h.technique(jg, 1);
-                CHECK(!jg.select(nee));  // connecting at the still-delta glass: nothing to add
+                CHECK(!selectBoth(jg, nee));  // connecting at the still-delta glass: nothing to add
             }
         }
         // PT: one connection, L-S, infinite: the glass x_1 is regularised, NEE contributes.
         const reg::Jg19 jg = fixedTau(30.0, scene, pt);
         Technique nee = h.technique(jg, 1);
-        CHECK(jg.select(nee));
+        CHECK(selectBoth(jg, nee));
         CHECK(nee.regularised[0] == 1);
         CHECK(nee.regularised[1] == -1);
     }
@@ -468,7 +480,7 @@ TEST_CASE("JG19 quality heuristic: q (Eq. 17) and the regularised vertex equal h
             for (double f : {0.999, 1.001}) {
                 const reg::Jg19 jg = fixedTau(std::sqrt(q) * f, scene, cfg);
                 Technique t1 = h.technique(jg, 1);
-                const bool contributes = jg.select(t1);
+                const bool contributes = selectBoth(jg, t1);
                 if (f > 1.0) {
                     CHECK(contributes);
                     CHECK(t1.regularised[0] == -1);
@@ -478,7 +490,7 @@ TEST_CASE("JG19 quality heuristic: q (Eq. 17) and the regularised vertex equal h
                     CHECK(chosen);
                     CHECK(contributes);  // NEE's ends contain x_1
                     Technique hitTech = h.technique(jg, 0);
-                    CHECK(!jg.select(hitTech));  // the emitter hit walks through x_1
+                    CHECK(!selectBoth(jg, hitTech));  // the emitter hit walks through x_1
                 }
             }
         }
@@ -652,6 +664,88 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
     INFO(checked << " weights, " << regularisedPaths << " on regularised paths, " << splits << " splits; worst " << worst);
     CHECK(checked > 3000);
     CHECK(regularisedPaths > 100);
+}
+
+TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as the loop over the path", "[jg19][quality]") {
+    // select() answers "unregularised" in O(1) when a connection term it knows without the loop
+    // (the joining segment, an emitter hit's first segment, d_path^2 times the walks' running
+    // minima SubpathState::connectionMin) is below tau^2; selectByLoop() is the plain form over
+    // the whole path. On BPT, VCM (merges too) and PT techniques of random walks in the box with
+    // the glossy panel, the glass and mirror balls, the area light and a point light in the glass,
+    // both must return the same answer, the same vertices and the same bounds, for tau 30 and
+    // 1000, with the diffusion heuristic off and on. Each configuration must also produce
+    // regularised and unregularised techniques where the request could change a vertex, so the
+    // comparison covers both outcomes. (Emitter hits on regularised paths, E S ... L with a tiny
+    // light, are too rare here: the hand-computed paths of the test above compare both forms on
+    // one.) And the running minima equal a recomputation over each walk's segments (relative
+    // 1e-6: float storage of a double quotient).
+    SceneDesc desc = mixedScene(16);
+    EmitterDesc point;
+    point.type = EmitterType::Point;
+    point.position = desc.spheres[0].center;
+    point.value = Color(3.f);
+    desc.emitters.push_back(point);
+    Scene scene(desc);
+    const bool diffusion = GENERATE(false, true);
+    const double tau = GENERATE(30.0, 1000.0);
+    const int setIndex = GENERATE(0, 1, 2);  // BPT, VCM (merging), PT
+    INFO("diffusion " << diffusion << " tau " << tau << " set " << setIndex);
+    const MisConfig cfg{setIndex == 2 ? TechniqueSet::PathTracer : TechniqueSet::Bidirectional, setIndex == 1,
+                        kPi * 0.05f * 0.05f, 256.f};
+    const reg::Jg19 jg = fixedTau(tau, scene, cfg, diffusion);
+    WalkStats ws;
+    std::array<PathVertex, kMaxPathVertices> y, z;
+    const Photon photon{};
+    int compared = 0, regularised = 0, changeableButNot = 0;
+    auto compare = [&](const Technique& tech) {
+        Technique a = tech, b = tech;
+        const bool ra = jg.select(a), rb = jg.selectByLoop(b);
+        CHECK(ra == rb);
+        for (int m = 0; m < 2; ++m) {
+            CHECK(a.regularised[m] == b.regularised[m]);
+            CHECK(a.bound[m] == b.bound[m]);
+        }
+        ++compared;
+        const int lightCount = tech.photon ? tech.s - 1 : tech.s;
+        const float changeable = tech.z[tech.t - 1].regState.changeable +
+                                 (lightCount >= 1 ? tech.y[lightCount - 1].regState.changeable : 0.f);
+        if (b.regularised[0] >= 0 || b.regularised[1] >= 0) ++regularised;
+        else if (changeable > 0.f) ++changeableButNot;
+    };
+    auto checkMinima = [&](const PathVertex* w, int n) {
+        double m = kInf;
+        for (int k = 1; k < n; ++k) {
+            const double a = w[k - 1].regState.rhoBar, b = w[k].regState.rhoBar, d = w[k].segmentLength;
+            if (a == 0.0 || b == 0.0) m = 0.0;
+            else if (std::isfinite(d) && d > 0.0) m = std::min(m, a * b / (d * d));
+            if (std::isinf(m)) CHECK(std::isinf(w[k].regState.connectionMin));
+            else CHECK(w[k].regState.connectionMin == Approx(m).epsilon(1e-6));
+        }
+    };
+    for (uint64_t i = 0; i < 400; ++i) {
+        Rng rng(i, 71);
+        const int ny = lightWalk(scene, jg, rng, 7, 100, y.data(), ws);
+        const int nz = cameraWalk(scene, jg, Vec2(rng.uniform() * 16, rng.uniform() * 16), rng, 7, 100, z.data(), ws);
+        checkMinima(y.data(), ny);
+        checkMinima(z.data(), nz);
+        for (int t = 1; t <= nz; ++t) {
+            const PathVertex& zt = z[t - 1];
+            // The emitter hit at z[t-1], and the connections to each light vertex.
+            if (t >= 2 && zt.light && allowsTechnique(cfg.set, 0, t)) compare(Technique{nullptr, 0, z.data(), t});
+            if (!jg.connectible(zt) || zt.infinite) continue;
+            for (int s = 1; s <= ny; ++s)
+                if (allowsTechnique(cfg.set, s, t) && jg.connectible(y[s - 1])) compare(Technique{y.data(), s, z.data(), t});
+            if (!cfg.merging || t < 2 || !zt.connectible()) continue;
+            for (int m = 1; m < ny; ++m)  // the merge of y[m] at z[t-1]
+                if (y[m].kind == VertexKind::Surface && y[m].connectible())
+                    compare(Technique{y.data(), m + 1, z.data(), t, &photon});
+        }
+    }
+    INFO(compared << " techniques, " << regularised << " regularised, " << changeableButNot
+                  << " unregularised where the request could change a vertex");
+    CHECK(compared > (setIndex == 2 ? 1000 : 5000));
+    CHECK(regularised > 100);
+    CHECK(changeableButNot > 200);
 }
 
 // ---- The path diffusion heuristic (jg19.h (4)) --------------------------------------------------

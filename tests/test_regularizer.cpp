@@ -67,7 +67,7 @@ bool samePdfs(const PathPdfs& a, const PathPdfs& b) {
 }  // namespace
 
 TEST_CASE("regulariser seam: per-subpath state is carried on every vertex", "[regularizer]") {
-    // The state: seven floats at the end of the record (168 bytes).
+    // The state: eight floats at the end of the record (168 bytes).
     static_assert(sizeof(PathVertex) == 168);
     Scene scene(testScene());
     WalkStats ws;

@@ -114,6 +114,20 @@ struct PathView {
 
 int pathVertexCount(const Technique& t) { return t.photon ? t.s - 1 + t.t : t.s + t.t; }
 
+// The emitter hit's term in q (see select): 1 / P, P = min(1, rho_bar_k A |cos theta_L| / D^2),
+// x0 the light's vertex, x1 the next one on the path, rhoK the bound of the first vertex from the
+// light that is not a delta and D the length unfolded up to it (1 for a constant background).
+double emitterHitTerm(const PathVertex& x0, const PathVertex& x1, double rhoK, double D) {
+    double hitProbability = 0.0;
+    if (x0.light && x0.light->type == LightType::Constant) {
+        hitProbability = 1.0;
+    } else if (x0.light && x0.light->type == LightType::Area && std::isfinite(D) && D > 0.0) {
+        const double cosL = std::abs(glm::dot(x0.ng, glm::normalize(x1.p - x0.p)));
+        hitProbability = std::min(1.0, rhoK * x0.light->area * cosL / sqr(D));
+    }
+    return hitProbability > 0.0 ? 1.0 / hitProbability : kInf;
+}
+
 // Whether the ends a, b (x indices; -1: none) of a technique contain the vertices select() chose
 // to regularise on this path (the techniques that compete for it, jg19.h (2)).
 bool containsRegularised(const Technique& tech, int a, int b) {
@@ -124,7 +138,7 @@ bool containsRegularised(const Technique& tech, int a, int b) {
 
 }  // namespace
 
-bool Jg19::select(Technique& tech) const {
+bool Jg19::select(Technique& tech, bool shortcut) const {
     tech.regularised[0] = tech.regularised[1] = -1;
     const PathView path(tech, pathVertexCount(tech));
     if (!settings_.quality) {  // (3): every technique at its own ends
@@ -142,32 +156,23 @@ bool Jg19::select(Technique& tech) const {
     if (changeable == 0.f) return true;
 
     const int n = path.n;
-    // Segment lengths d_j = |x_j x_{j+1}| from the walks' records (the one joining the two
-    // subpaths measured here), and d_path (Eq. 17) from their running sums. A segment to a vertex
-    // at infinity (or the light walk's first segment from a light at infinity, recorded as 0) is
-    // left out of d_path, and its connection compared without the distance factor.
-    // The path's vertices, segment lengths d_j and bounds, gathered once (the loops below read
-    // each several times).
-    std::array<const PathVertex*, kMaxPathVertices> xs;
-    std::array<double, kMaxPathVertices> seg, plainB, regB;
-    std::array<float, kMaxPathVertices> taus;  // tau' at each vertex (diffusion)
-    for (int j = 0; j < n; ++j) xs[j] = &path.vertex(j);
-    const int join = path.lightCount - 1;  // the segment x_join - x_{join+1} joins the subpaths
+    // Eq. 18's "unregularised" answer: a technique connecting at a vertex that stays a delta then
+    // has nothing to add.
+    auto unregularised = [&]() {
+        for (int j : {path.lightEnd, path.cameraEnd})
+            if (j >= 0 && !path.vertex(j).connectible()) return false;
+        return true;
+    };
+    // The segment x_join - x_{join+1} joins the two subpaths (measured here; the others' lengths
+    // d_j are on the walks' records), and d_path (Eq. 17) is the sum of the subpaths' running
+    // lengths and this one. A segment to a vertex at infinity (or the light walk's first segment
+    // from a light at infinity, recorded as 0) is left out of d_path, and its connection compared
+    // without the distance factor.
+    const int join = path.lightCount - 1;
     double joinLength = 0.0;
     if (join >= 0) {
-        const PathVertex &a = *xs[join], &b = *xs[join + 1];
+        const PathVertex &a = path.vertex(join), &b = path.vertex(join + 1);
         joinLength = a.infinite || b.infinite ? kInf : double(glm::length(a.p - b.p));
-    }
-    for (int j = 0; j + 1 < n; ++j)
-        seg[j] = j == join ? joinLength
-                           : double(j < join ? tech.y[j + 1].segmentLength : tech.z[n - 1 - j].segmentLength);
-    for (int j = 0; j < n; ++j) {
-        if (j == 0 && tech.s == 0) {
-            plainB[j] = regB[j] = lightBound(*xs[j]->light);  // the emitter a camera walk hit
-        } else {
-            plainB[j] = xs[j]->regState.rhoBar;
-            regB[j] = xs[j]->regState.rhoBarReg;
-        }
     }
     auto runningLength = [](const PathVertex& v, const PathVertex* before) -> double {
         if (v.infinite) return before ? double(before->pathLength) : 0.0;  // (the camera walk's escape)
@@ -177,6 +182,61 @@ bool Jg19::select(Technique& tech) const {
     if (tech.t >= 1) dPath += runningLength(tech.z[tech.t - 1], tech.t >= 2 ? &tech.z[tech.t - 2] : nullptr);
     if (path.lightCount >= 1) dPath += double(tech.y[path.lightCount - 1].pathLength);
     const double tau = double(radiance_.reg.tau);
+    // The connection term of Eq. 17 (q's quantity) for bounds ra, rb over segment length dj.
+    auto connectionTerm = [&](double ra, double rb, double dj) {
+        if (ra == 0.0 || rb == 0.0) return 0.0;
+        const double t = ra * rb;
+        return std::isfinite(dj) && dj > 0.0 && dPath > 0.0 ? t * sqr(dPath / dj) : t;
+    };
+
+    // The common case without the loops below: a connection term already under tau^2, so q is
+    // (Eq. 18). Known in O(1): the joining segment's term, an emitter hit's first segment, and,
+    // where every connection is a technique (BPT, VCM), d_path^2 times the subpaths' running
+    // minima (SubpathState::connectionMin, stored in float: the margin 1e-4 keeps this exit to
+    // paths whose q from the loop, in double, is under tau^2 too, so the choice is the loop's).
+    // d_j from the records (the joining segment measured above).
+    auto segmentAt = [&](int j) -> double {
+        if (j == join) return joinLength;
+        return double(j < join ? tech.y[j + 1].segmentLength : tech.z[n - 1 - j].segmentLength);
+    };
+    if (shortcut) {
+        double known = kInf;
+        if (join >= 0 && allowsTechnique(set_, join + 1, n - join - 1))
+            known = connectionTerm(path.vertex(join).regState.rhoBar, path.vertex(join + 1).regState.rhoBar, joinLength);
+        if (tech.s == 0 && n >= 2 && allowsTechnique(set_, 1, n - 1))
+            known = std::min(known, connectionTerm(lightBound(*tech.z[tech.t - 1].light),
+                                                   tech.z[tech.t - 2].regState.rhoBar, tech.z[tech.t - 1].segmentLength));
+        if (set_ == TechniqueSet::Bidirectional) {
+            double m = kInf;
+            if (path.lightCount >= 1) m = tech.y[path.lightCount - 1].regState.connectionMin;
+            const int lastCamera = tech.s == 0 ? tech.t - 2 : tech.t - 1;  // (x_0 of an emitter hit: above)
+            if (lastCamera >= 0) m = std::min(m, double(tech.z[lastCamera].regState.connectionMin));
+            if (m == 0.0) known = 0.0;
+            else if (dPath > 0.0) known = std::min(known, m * sqr(dPath));
+        }
+        // The emitter hit's term where x_1 is not a delta (nothing to unfold).
+        if (allowsTechnique(set_, 0, n) && n >= 2) {
+            const double rho1 = path.vertex(1).regState.rhoBar;
+            if (std::isfinite(rho1)) known = std::min(known, emitterHitTerm(path.vertex(0), path.vertex(1), rho1, segmentAt(0)));
+        }
+        if (known < tau * tau * (1.0 - 1e-4)) return unregularised();
+    }
+
+    // The path's vertices, segment lengths d_j and bounds, gathered once (the loops below read
+    // each several times).
+    std::array<const PathVertex*, kMaxPathVertices> xs;
+    std::array<double, kMaxPathVertices> seg, plainB, regB;
+    std::array<float, kMaxPathVertices> taus;  // tau' at each vertex (diffusion)
+    for (int j = 0; j < n; ++j) xs[j] = &path.vertex(j);
+    for (int j = 0; j + 1 < n; ++j) seg[j] = segmentAt(j);
+    for (int j = 0; j < n; ++j) {
+        if (j == 0 && tech.s == 0) {
+            plainB[j] = regB[j] = lightBound(*xs[j]->light);  // the emitter a camera walk hit
+        } else {
+            plainB[j] = xs[j]->regState.rhoBar;
+            regB[j] = xs[j]->regState.rhoBarReg;
+        }
+    }
     // With the diffusion heuristic, the bound tau' of the request at each vertex is tau / sigma_j
     // along the view sub-path (4), and the regularised bounds are under it: the camera subpath's
     // spreads from its walk, then across the connection and down the light subpath.
@@ -192,12 +252,6 @@ bool Jg19::select(Technique& tech) const {
         }
     }
     auto bound = [&](int j, bool reg) -> double { return reg ? regB[j] : plainB[j]; };
-    // The connection term of Eq. 17 (q's quantity) for bounds ra, rb over segment length dj.
-    auto connectionTerm = [&](double ra, double rb, double dj) {
-        if (ra == 0.0 || rb == 0.0) return 0.0;
-        const double t = ra * rb;
-        return std::isfinite(dj) && dj > 0.0 && dPath > 0.0 ? t * sqr(dPath / dj) : t;
-    };
     double q = kInf, best = kInf, bestLength = -1.0;
     int bestA = -1, bestB = -1;
     auto consider = [&](double plain, double reg, double length, int a, int b) {
@@ -216,19 +270,11 @@ bool Jg19::select(Technique& tech) const {
     // and its relative variance ~ 1 / P plays the connection term's part. Without it a light seen
     // in a mirror (E S L, which the camera walk samples as well as a pixel) would be blurred.
     if (allowsTechnique(set_, 0, n) && n >= 2) {
-        const PathVertex& x0 = *xs[0];
-        double hitProbability = 0.0;
-        if (x0.light && x0.light->type == LightType::Constant) {
-            hitProbability = 1.0;
-        } else if (x0.light && x0.light->type == LightType::Area && std::isfinite(seg[0]) && seg[0] > 0.0) {
-            double D = seg[0];
-            int k = 1;
+        double D = seg[0];
+        int k = 1;
+        if (std::isfinite(D) && D > 0.0)
             while (k < n - 1 && std::isinf(bound(k, false)) && std::isfinite(seg[k])) D += seg[k++];
-            const Vec3 toX1 = glm::normalize(xs[1]->p - x0.p);
-            const double cosL = std::abs(glm::dot(x0.ng, toX1));
-            hitProbability = std::min(1.0, bound(k, false) * x0.light->area * cosL / sqr(D));
-        }
-        const double term = hitProbability > 0.0 ? 1.0 / hitProbability : kInf;
+        const double term = emitterHitTerm(*xs[0], *xs[1], bound(k, false), D);
         consider(term, term, -1.0, -1, -1);
     }
     if (merging_ && mergeDensity_ > 0.0) {
@@ -240,11 +286,7 @@ bool Jg19::select(Technique& tech) const {
     }
     // Eq. 18: a good unbiased sampler (or none better with the bound): no regularisation. A
     // technique connecting at a vertex that stays a delta then has nothing to add.
-    if (q < tau * tau || !(best < q)) {
-        for (int j : {path.lightEnd, path.cameraEnd})
-            if (j >= 0 && !xs[j]->connectible()) return false;
-        return true;
-    }
+    if (q < tau * tau || !(best < q)) return unregularised();
     int m = 0;
     for (int j : {bestA, bestB})
         if (j >= 0 && bound(j, true) < bound(j, false)) {

@@ -27,6 +27,11 @@
 //       Otherwise the technique whose connection term is smallest with the bounds under tau
 //       (ties: the longer connection) is the one regularised, at those of its ends the request
 //       changes (KD13's selective choice of one estimator per path, with JG19's measure).
+//     Cost: q < tau^2 is the common answer, and it is known in O(1) when a term known without
+//     the loop over the path is under tau^2: the joining segment's, and with every connection a
+//     technique (BPT, VCM) d_path^2 times the walks' running minima of rho_bar_a rho_bar_b / d^2
+//     over each subpath's segments (SubpathState::connectionMin). Only the other paths take the
+//     O(n) loop (selectByLoop: the plain form, which tests compare it with).
 //     Every technique then evaluates the same integrand on this path: those whose connection
 //     ends contain the regularised vertices compete with their sampling densities (Eq. 13's
 //     rho_hat / rho factors are common to all of them and cancel), the others (walking through a
@@ -73,6 +78,8 @@
 //     directions already), so tau' >= tau / 100 (also what connectible() uses).
 // Not yet here (issue 13): merges on delta surfaces (photons are stored on non-delta surfaces only).
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include "integrators/transport/path.h"
 
@@ -124,7 +131,10 @@ public:
         return BsdfContext(mode);
     }
     // (2), (5)
-    bool select(Technique& tech) const;
+    bool select(Technique& tech) const { return select(tech, true); }
+    // select() without its O(1) exit (q < tau^2 from the subpaths' running minima): the plain
+    // form over the whole path, which select() must agree with (tests).
+    bool selectByLoop(Technique& tech) const { return select(tech, false); }
     // (2), (3)
     static constexpr bool kPerTechnique = true;
     bool perTechnique(const Technique& tech) const;
@@ -135,6 +145,7 @@ public:
     // and not 1. (A singular vertex the walk passed through changes no weight: every technique
     // regularising it has factor 0, as its delta flag says anyway.)
     void start(PathVertex& v) const {
+        v.roughenedByRequest = false;  // (no BSDF)
         v.regState = SubpathState{};
         v.regState.rhoBar = v.regState.rhoBarReg = endpointBound(v);
         if (diffusion()) {
@@ -143,11 +154,15 @@ public:
         }
     }
     void extend(PathVertex& v, PathVertex& prev) const {
+        v.roughenedByRequest = v.deltaBsdf && v.kind == VertexKind::Surface && !v.infinite && v.bxdf &&
+                               !v.bxdf->deltaUnder(loosest_);
         SubpathState& st = v.regState;
         st.ratio = 1.f;
         if (settings_.quality) {
             st.accumulated = 0.f;
             surfaceBounds(v, st.rhoBar, st.rhoBarReg);
+            st.connectionMin = std::min(prev.regState.connectionMin,
+                                        segmentTerm(prev.regState.rhoBar, st.rhoBar, v.segmentLength));
             if (!diffusion()) {
                 st.changeable = prev.regState.changeable + (st.rhoBarReg < st.rhoBar ? 1.f : 0.f);
                 return;
@@ -171,10 +186,11 @@ public:
         st.rhoBar = st.rhoBarReg = st.changeable = 0.f;
     }
     // (4) Any surface vertex with a BSDF that is not still a delta under the smallest bound a
-    // vertex can get (tau_n; with the diffusion heuristic tau_n / Diffusion::kMaxSpread).
+    // vertex can get (tau_n; with the diffusion heuristic tau_n / Diffusion::kMaxSpread): the
+    // walk's answer for a smooth BSDF (extend; one virtual call per vertex, not per connection).
     bool connectible(const PathVertex& v) const {
         if (v.connectible()) return true;
-        return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && !v.bxdf->deltaUnder(loosest_);
+        return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && (!v.deltaBsdf || v.roughenedByRequest);
     }
 
     // rho_hat / rho of v's BSDF between v.wo and wi (1 where nothing changes, +inf where rho is a
@@ -183,6 +199,13 @@ public:
     // rho_bar of a light's directional emission (see (2)), and of a surface vertex's BSDF without
     // and with the iteration's request (0 without a BSDF; with diffusion, the ceiling of (4)).
     static float lightBound(const Light& light);
+    // rho_bar_a rho_bar_b / d^2 of a segment (SubpathState::connectionMin): 0 where a bound is 0,
+    // +inf where d is not finite and positive (the loop of select() compares those unscaled).
+    static float segmentTerm(float a, float b, float d) {
+        if (a == 0.f || b == 0.f) return 0.f;
+        if (!(std::isfinite(d) && d > 0.f)) return kInf;
+        return float(double(a) * double(b) / (double(d) * double(d)));
+    }
     void surfaceBounds(const PathVertex& v, float& plain, float& regularised) const;
 
 private:
@@ -192,6 +215,7 @@ private:
         return v.light ? lightBound(*v.light) : 0.f;
     }
     bool diffusion() const { return settings_.quality && settings_.diffusion; }
+    bool select(Technique& tech, bool shortcut) const;
     void setLimits();  // loosest_ from tau_n
     // tau' = tau_n / sigma (Eq. 19).
     float boundAt(double spread) const {

@@ -68,10 +68,12 @@ enum class VertexKind : uint8_t { Camera, Light, Surface };
 // hits. At endpoints ng is zero for point lights, the camera and vertices at infinity.
 struct PathVertex : SurfacePoint {
     VertexKind kind = VertexKind::Surface;
+    // A smooth (delta) BSDF here that every request of the running regulariser makes rough, so a
+    // connection may end here (its start/extend write it: Jg19::connectible; None leaves it).
+    bool roughenedByRequest = false;
     Vec3 wo{0.f};        // unit direction towards the previous vertex (zero at an endpoint)
     Color beta{1.f};     // throughput of the subpath up to this vertex (not including its BSDF)
     AreaPdf fromLight, fromCamera;  // pL, pC of this vertex (names: see the top of this file)
-    uint32_t lobe = kNone;  // lobe sampled at this vertex to continue the walk
     bool delta = false;     // continued through a delta lobe: no connection can use this vertex
     bool infinite = false;  // at infinity (environment hit, directional/constant light endpoint)
     uint16_t depth = 0;     // number of segments from the subpath's endpoint
@@ -84,7 +86,7 @@ struct PathVertex : SurfacePoint {
     // with no default construction first (it runs per vertex), then the regulariser's state
     // (start at an endpoint, extend from prev). `prev` is the vertex the walk came from, `toPrev`
     // the unit direction to it and `segment` the distance (null, zero and 0 at an endpoint:
-    // depth 0, path length 0); the lobe is set when the walk continues from here.
+    // depth 0, path length 0).
     template <class Reg>
     void init(const Reg& reg, VertexKind k, PathVertex* prev, const Vec3& toPrev, float segment,
               const Color& throughput, AreaPdf pL, AreaPdf pC, bool atInfinity = false) {
@@ -93,7 +95,6 @@ struct PathVertex : SurfacePoint {
         beta = throughput;
         fromLight = pL;
         fromCamera = pC;
-        lobe = kNone;
         delta = false;
         infinite = atInfinity;
         depth = prev ? uint16_t(prev->depth + 1) : uint16_t(0);

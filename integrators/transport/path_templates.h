@@ -99,7 +99,6 @@ int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAng
         float uLobe = rng.uniform();
         Vec2 u = rng.uniform2();
         if (!v.bsdf().sample(v.wo, uLobe, u, ctx, bs) || isBlack(bs.weight)) break;
-        v.lobe = bs.lobe;
         // The roulette's continuation probability is part of both densities of the next vertex
         // (and of prev, below) whether or not the roulette runs at this depth ("Russian
         // roulette", path.h).

@@ -74,8 +74,8 @@ struct Photon;
 struct MisConfig;
 class Scene;
 
-// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Seven floats: the
-// record is 168 bytes with them (160 with five, 144 with one, which fit the tail padding).
+// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Eight floats: the
+// record is 168 bytes with them (160 with six, 144 with two, which fit the tail padding).
 struct SubpathState {
     float accumulated = 0.f;  // (JG19: the number of vertices before this one whose ratio is finite, not 1)
     // JG19: rho_hat / rho at this vertex, between its two neighbours on its own subpath (written
@@ -91,6 +91,11 @@ struct SubpathState {
     // JG19's diffusion heuristic on a camera subpath: the angular spread of the segment arriving
     // here and the footprint here (jg19.h (4)); spread -1 on a light subpath.
     float spread = 0.f, footprint = 0.f;
+    // JG19's quality heuristic: the smallest rho_bar_a rho_bar_b / d^2 over the segments of this
+    // subpath up to here (a, b the segment's ends, d > 0 finite its length; 0 where either bound
+    // is 0; +inf with no such segment). Its connection terms of Eq. 17 are d_path^2 times these,
+    // so select() can tell that q < tau^2 without the path's loop (jg19.h (2)).
+    float connectionMin = kInf;
 };
 
 // The vertices of the technique that connect, emitterHit or merge evaluates.
