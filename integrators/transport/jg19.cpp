@@ -323,6 +323,7 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
         return;
     }
     const bool regularisedMis = settings_.mis == MisDensities::Regularised;
+    constexpr float kMaxFactor = 1e30f;  // (two ratios near FLT_MIN would overflow the product)
     // The base's singular ends: every competitor must connect (merge) there too.
     int singular[2], nSingular = 0;
     for (int j : {path.lightEnd, path.cameraEnd})
@@ -343,7 +344,13 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
                 if (!common) return 0.f;
                 continue;  // rho_hat in both: cancels
             }
-            if (regularisedMis) f *= r;
+            if (regularisedMis) {
+                // Eq. 12: weights in proportion to p_k / f_k, f_k = f times the ratios at k's
+                // own ends (jg19.h (3)). A regularised value of 0: Eq. 12's 0/0, the technique
+                // adds nothing and is left out (the others keep the path).
+                if (!(r > 0.f)) return 0.f;
+                f = std::min(f / r, kMaxFactor);
+            }
         }
         return f;
     };
