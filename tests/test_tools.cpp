@@ -430,13 +430,34 @@ TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machin
     INFO(r.output);
     REQUIRE(r.code == 0);
     std::string md = lt::analysis::readFile((dir / "B.md").string());
-    CHECK(md.find("| integrator | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE | top-1% share |") != std::string::npos);
-    // time, spp, samples/s, relMSE, RMS-RE, MAPE, and the top-1% share in [0, 1] with three decimals.
-    CHECK(std::regex_search(md, std::regex(R"(\| pt \| [0-9.]+ \| [0-9]+ \| [0-9.e+]+ \| [0-9.e+-]+ \| [0-9.e+-]+ \| )"
-                                           R"([0-9.e+-]+ \| [01]\.[0-9]{3} \|\n)")));
+    CHECK(md.find("| configuration | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE | top-1% share | mean bias | "
+                  "regularised |") != std::string::npos);
+    // time, spp, samples/s, relMSE, RMS-RE, MAPE, the top-1% share in [0, 1] with three decimals,
+    // the mean's bias in percent, and the regularised share (none without a regulariser).
+    const std::string metrics = R"( \| [0-9.]+ \| [0-9]+ \| [0-9.e+]+ \| [0-9.e+-]+ \| [0-9.e+-]+ \| [0-9.e+-]+ \| )"
+                                R"([01]\.[0-9]{3} \| [+-][0-9]+\.[0-9]{2}% \| )";
+    CHECK(std::regex_search(md, std::regex(R"(\| pt)" + metrics + R"(- \|\n)")));
+    // PT with each regulariser beside it (default --regularizers: all), and the summary of its
+    // error over PT's.
+    CHECK(std::regex_search(md, std::regex(R"(\| pt\+jg19)" + metrics + R"([0-9.]+% \|\n)")));
+    CHECK(std::regex_search(md, std::regex(R"(## Regularisation at equal time[^]*\| scene \| pt\+jg19 \| bpt\+jg19 \| )"
+                                           R"(vcm\+jg19 \|\n\|---\|---:\|---:\|---:\|\n\| cornell-box \| [0-9.e+-]+ / )"
+                                           R"([0-9.e+-]+ \| - \| - \|\n)")));
     CHECK(md.find("nproc") != std::string::npos);
     CHECK(md.find("memory") != std::string::npos);
     CHECK(fs::exists(dir / "out/refs/cornell-box.json"));
+    // --regularizers none: the unregularised runs alone; an unknown name is an error.
+    r = sh(tool("bench") + " --scenes " + scene("cornell-box.xml") + " --integrators pt --regularizers none --time 0.1 "
+           "--ref-time 0.5 --res 16 --out-dir " + (dir / "out").string() + " -o " + (dir / "C.md").string());
+    REQUIRE(r.code == 0);
+    md = lt::analysis::readFile((dir / "C.md").string());
+    CHECK(md.find("| pt |") != std::string::npos);
+    CHECK(md.find("| pt+jg19") == std::string::npos);
+    CHECK(md.find("## Regularisation at equal time") == std::string::npos);
+    r = sh(tool("bench") + " --scenes " + scene("cornell-box.xml") + " --regularizers kd99 -o " + (dir / "D.md").string());
+    CHECK(r.code == 1);
+    CHECK(r.output.find("unknown regulariser 'kd99'") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "D.md"));
     fs::remove_all(dir);
 }
 

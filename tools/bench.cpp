@@ -1,7 +1,10 @@
 // bench: renders the hard-case suite (scenes/hard/*.xml) and scenes/cornell-box*.xml with every
-// available integrator at equal time and writes BENCHMARKS.md: per scene and integrator the render
-// time, spp, samples/s, relMSE, RMS-RE, MAPE and the top-1% share (of the relMSE, carried by the
-// worst 1% of pixels) against a reference, and the machine (nproc, CPU model, memory). References
+// available integrator, and PT, BPT and VCM with each regulariser, at equal time and writes
+// BENCHMARKS.md: per scene and configuration the render time, spp, samples/s, relMSE, RMS-RE,
+// MAPE, the top-1% share (of the relMSE, carried by the worst 1% of pixels), the bias of the image
+// mean and the regularised share of contributions against a reference; a summary of each
+// regulariser's error over the same integrator's without it; and the machine (nproc, CPU model,
+// memory). References
 // are rendered once by the `reference` tool (next to this binary) and cached under out/bench/refs/
 // (re-rendered when the scene or the settings change).
 // Run from the repository root (or give --root). See docs/tools.md.
@@ -62,13 +65,17 @@ std::string machine(int threads) {
 
 int main(int argc, char** argv) {
     CLI::App app{"bench: every available integrator at equal time on the hard-case suite and the Cornell boxes"};
-    std::string root = ".", outDir = "out/bench", md = "BENCHMARKS.md", refConfig = "auto", integratorList;
+    std::string root = ".", outDir = "out/bench", md = "BENCHMARKS.md", refConfig = "auto", integratorList, regularizerList;
     std::vector<std::string> scenes;
     int res = 64, threads = 0;
     double seconds = 3, refTime = 20;
     app.add_option("--root", root, "Repository root (default: current folder)");
     app.add_option("--scenes", scenes, "Scenes (default: scenes/hard/*.xml and scenes/cornell-box*.xml)");
-    app.add_option("--integrators", integratorList, "Comma-separated integrators (default: all available)");
+    app.add_option("--integrators", integratorList,
+                   "Comma-separated configurations, as the analysis tools' (default: every available integrator)");
+    app.add_option("--regularizers", regularizerList,
+                   "Comma-separated regularisers to run PT, BPT and VCM with besides none (default: all; 'none': "
+                   "only the unregularised ones)");
     app.add_option("--time", seconds, "Render time per scene and integrator in seconds (default 3)")->check(CLI::PositiveNumber);
     app.add_option("--res", res, "Image width and height, through -D res=N (default 64)")->check(CLI::Range(8, 4096));
     app.add_option("--ref-time", refTime, "Render time of each reference in seconds (default 20)")->check(CLI::PositiveNumber);
@@ -95,13 +102,36 @@ int main(int argc, char** argv) {
             scenes.insert(scenes.end(), found.begin(), found.end());
         }
     }
-    std::vector<std::string> integrators = availableIntegrators();
-    if (!integratorList.empty()) {
-        integrators.clear();
-        std::stringstream ss(integratorList);
+    auto splitList = [](const std::string& list) {
+        std::vector<std::string> out;
+        std::stringstream ss(list);
         for (std::string t; std::getline(ss, t, ',');)
-            if (!t.empty()) integrators.push_back(t);
+            if (!t.empty()) out.push_back(t);
+        return out;
+    };
+    std::vector<std::string> specs = integratorList.empty() ? availableIntegrators() : splitList(integratorList);
+    std::vector<std::string> regularizers;
+    for (const std::string& r : regularizerList.empty() ? kRegularizerNames : splitList(regularizerList)) {
+        if (std::find(kRegularizerNames.begin(), kRegularizerNames.end(), r) == kRegularizerNames.end()) {
+            fmt::print(stderr, "bench: error: --regularizers: unknown regulariser '{}'\n", r);
+            return 1;
+        }
+        if (r != "none") regularizers.push_back(r);
     }
+    // Each regulariser with PT, BPT and VCM where they run unregularised, labelled "pt+jg19".
+    for (const std::string& r : regularizers)
+        for (const char* integ : {"pt", "bpt", "vcm"})
+            if (std::find(specs.begin(), specs.end(), integ) != specs.end())
+                specs.push_back(fmt::format("{} --reg {} --label {}+{}", integ, r, integ, r));
+    std::vector<RunConfig> configs;
+    try {
+        configs = gatherConfigs(specs, "");
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "bench: error: {}\n", e.what());
+        return 1;
+    }
+    // For the summary: (scene, label) -> relMSE, RMS-RE.
+    std::map<std::pair<std::string, std::string>, std::pair<double, double>> results;
     if (refConfig == "auto") {
         refConfig = integratorAvailable("vcm") ? "vcm" : integratorAvailable("bpt") ? "bpt" : "pt";
     }
@@ -137,8 +167,9 @@ int main(int argc, char** argv) {
         body += fmt::format("Reference: `{}`, {} spp in {:.0f} s ({}x{}, scene SHA-256 `{}`).\n\n",
                             refJson.value("config", refConfig), refJson.value("spp", 0), refJson.value("seconds", 0.0), res,
                             res, refJson.value("scene_sha256", std::string("?")).substr(0, 16));
-        body += "| integrator | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE | top-1% share |\n"
-                "|---|---:|---:|---:|---:|---:|---:|---:|\n";
+        body += "| configuration | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE | top-1% share | mean bias | "
+                "regularised |\n"
+                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         SceneDesc desc;
         try {
             desc = loadScene(scenePath, defines);
@@ -148,9 +179,9 @@ int main(int argc, char** argv) {
             continue;
         }
         Scene scene(desc);
-        for (const std::string& integ : integrators) {
+        for (const RunConfig& cfg : configs) {
+            const std::string& integ = cfg.label;
             try {
-                RunConfig cfg = parseConfig(integ);
                 RenderSettings s = makeSettings(desc, cfg, threads, 1);
                 s.spp = 0;
                 s.timeLimit = seconds;
@@ -162,13 +193,49 @@ int main(int argc, char** argv) {
                 writeExr(img, o.string());
                 writePng(img, fs::path(o).replace_extension(".png").string());
                 double sps = st.seconds > 0 ? double(st.samples) / st.seconds : 0.0;
-                body += fmt::format("| {} | {:.2f} | {} | {:.3g} | {:.4g} | {:.4g} | {:.4g} | {:.3f} |\n", integ, st.seconds,
-                                    st.spp, sps, m.relMse, m.rmsRelErr, m.mape, relMseTopShare(img, refImg));
+                const std::string bias =
+                    m.meanReference > 0.0 ? fmt::format("{:+.2f}%", 100.0 * (m.meanImage / m.meanReference - 1.0)) : "-";
+                const std::string share =
+                    s.regularizer == "none" || st.contributions == 0
+                        ? "-"
+                        : fmt::format("{:.1f}%", 100.0 * double(st.regularisedContributions) / double(st.contributions));
+                body += fmt::format("| {} | {:.2f} | {} | {:.3g} | {:.4g} | {:.4g} | {:.4g} | {:.3f} | {} | {} |\n", integ,
+                                    st.seconds, st.spp, sps, m.relMse, m.rmsRelErr, m.mape, relMseTopShare(img, refImg),
+                                    bias, share);
+                results[{scenePath, integ}] = {m.relMse, m.rmsRelErr};
                 fmt::print("  {}: {} spp in {:.2f} s, relMSE {:.4g}\n", integ, st.spp, st.seconds, m.relMse);
             } catch (const std::exception& e) {
-                body += fmt::format("| {} | failed: {} | | | | | | |\n", integ, e.what());
+                body += fmt::format("| {} | failed: {} | | | | | | | | |\n", integ, e.what());
                 ++failures;
             }
+        }
+    }
+    // Each regulariser against no regulariser, same integrator, same time: ratios below 1 are the
+    // regulariser's gain (its bias included: the reference is unregularised).
+    if (!regularizers.empty()) {
+        body += "\n## Regularisation at equal time\n\nError with the regulariser over the same integrator's without it, "
+                "same time and reference (below 1: the regulariser wins; its bias is part of its error). relMSE ratio / "
+                "RMS-RE ratio. Each figure is one timed run: where the machine is shared, the spp of a configuration "
+                "varies between runs (see the tables), and so does its relMSE, about in inverse proportion.\n\n| scene |";
+        std::string rule = "|---|";
+        for (const std::string& r : regularizers)
+            for (const char* integ : {"pt", "bpt", "vcm"}) {
+                body += fmt::format(" {}+{} |", integ, r);
+                rule += "---:|";
+            }
+        body += "\n" + rule + "\n";
+        for (const std::string& scenePath : scenes) {
+            body += fmt::format("| {} |", fs::path(scenePath).stem().string());
+            for (const std::string& r : regularizers)
+                for (const char* integ : {"pt", "bpt", "vcm"}) {
+                    auto a = results.find({scenePath, fmt::format("{}+{}", integ, r)}), b = results.find({scenePath, integ});
+                    if (a == results.end() || b == results.end() || !(b->second.first > 0.0) || !(b->second.second > 0.0))
+                        body += " - |";
+                    else
+                        body += fmt::format(" {:.3g} / {:.3g} |", a->second.first / b->second.first,
+                                            a->second.second / b->second.second);
+                }
+            body += "\n";
         }
     }
     double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -178,7 +245,9 @@ int main(int argc, char** argv) {
                        "relMSE = mean (a-b)^2/(b^2+0.01), RMS-RE = the RMS of relative residuals of Jendersie & Grosch "
                        "2019, MAPE = mean |a-b|/(|b|+0.01), top-1% share = the share of the relMSE carried by the worst 1% "
                        "of pixels (per pixel the sum of its three channels' terms; 0.01 when the error is spread evenly, "
-                       "near 1 when it is in a few fireflies) (core/metrics.h). A reference rendered by an integrator that "
+                       "near 1 when it is in a few fireflies) (core/metrics.h), mean bias = the image mean's relative "
+                       "difference from the reference's, regularised = the share of the contributions whose technique was "
+                       "regularised (`pt+jg19`: PT with `--reg jg19` and its defaults). A reference rendered by an integrator that "
                        "cannot sample some paths of a scene (see the comment at the top of each scene; e.g. PT and point "
                        "lights behind glass) misses them, and so do the figures against it.\n\n";
     head += fmt::format("Date: {}. Command: `{}`. Total time {:.0f} s.\n\n## Machine\n\n{}", nowUtc(), commandLine(argc, argv),
