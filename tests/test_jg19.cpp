@@ -29,6 +29,18 @@ SceneDesc mixedScene(int res) {
     return d;
 }
 
+// The same with a point light inside the glass sphere besides the area light: its paths
+// (L S ...) are the ones no connection samples well.
+SceneDesc mixedSceneWithPointInGlass(int res) {
+    SceneDesc d = mixedScene(res);
+    EmitterDesc point;
+    point.type = EmitterType::Point;
+    point.position = d.spheres[0].center;
+    point.value = Color(3.f);
+    d.emitters.push_back(point);
+    return d;
+}
+
 RenderSettings settingsFor(const std::string& integrator, int spp) {
     RenderSettings s;
     s.integrator = integrator;
@@ -648,12 +660,7 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
     // (float against double, as in the Eq. 13 test).
     // A point light inside the glass sphere besides the area light: its paths (L S ...) are the
     // ones no connection samples well, so many are regularised.
-    SceneDesc desc = mixedScene(16);
-    EmitterDesc point;
-    point.type = EmitterType::Point;
-    point.position = desc.spheres[0].center;
-    point.value = Color(3.f);
-    desc.emitters.push_back(point);
+    SceneDesc desc = mixedSceneWithPointInGlass(16);
     // With and without the diffusion heuristic: with it, the bound at each chosen vertex (tau over
     // the spread along the path from the camera) is also the same in every split, up to float
     // rounding of the walks' stored spreads (relative 1e-4).
@@ -732,12 +739,7 @@ TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as 
     // light, are too rare here: the hand-computed paths of the test above compare both forms on
     // one.) And the running minima equal a recomputation over each walk's segments (relative
     // 1e-6: float storage of a double quotient).
-    SceneDesc desc = mixedScene(16);
-    EmitterDesc point;
-    point.type = EmitterType::Point;
-    point.position = desc.spheres[0].center;
-    point.value = Color(3.f);
-    desc.emitters.push_back(point);
+    SceneDesc desc = mixedSceneWithPointInGlass(16);
     Scene scene(desc);
     const bool diffusion = GENERATE(false, true);
     const double tau = GENERATE(30.0, 1000.0);
