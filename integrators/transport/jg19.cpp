@@ -189,23 +189,24 @@ bool Jg19::select(Technique& tech, bool shortcut) const {
         return std::isfinite(dj) && dj > 0.0 && dPath > 0.0 ? t * sqr(dPath / dj) : t;
     };
 
-    // The common case without the loops below: a connection term already under tau^2, so q is
-    // (Eq. 18). Known in O(1): the joining segment's term, an emitter hit's first segment, and,
-    // where every connection is a technique (BPT, VCM), d_path^2 times the subpaths' running
-    // minima (SubpathState::connectionMin, stored in float: the margin 1e-4 keeps this exit to
-    // paths whose q from the loop, in double, is under tau^2 too, so the choice is the loop's).
     // d_j from the records (the joining segment measured above).
     auto segmentAt = [&](int j) -> double {
         if (j == join) return joinLength;
         return double(j < join ? tech.y[j + 1].segmentLength : tech.z[n - 1 - j].segmentLength);
     };
+
+    // The common case without the loops below: a connection term already under tau^2, so q is
+    // (Eq. 18). Known in O(1): the joining segment's term, an emitter hit's first segment, and,
+    // where every connection is a technique (BPT, VCM), d_path^2 times the subpaths' running
+    // minima (SubpathState::connectionMin, stored in float: the margin 1e-4 keeps this exit to
+    // paths whose q from the loop, in double, is under tau^2 too, so the choice is the loop's).
     if (shortcut) {
         double known = kInf;
         if (join >= 0 && allowsTechnique(set_, join + 1, n - join - 1))
             known = connectionTerm(path.vertex(join).regState.rhoBar, path.vertex(join + 1).regState.rhoBar, joinLength);
         if (tech.s == 0 && n >= 2 && allowsTechnique(set_, 1, n - 1))
             known = std::min(known, connectionTerm(lightBound(*tech.z[tech.t - 1].light),
-                                                   tech.z[tech.t - 2].regState.rhoBar, tech.z[tech.t - 1].segmentLength));
+                                                   tech.z[tech.t - 2].regState.rhoBar, segmentAt(0)));
         if (set_ == TechniqueSet::Bidirectional) {
             double m = kInf;
             if (path.lightCount >= 1) m = tech.y[path.lightCount - 1].regState.connectionMin;
