@@ -21,6 +21,7 @@
 //   generalised density of integrators/transport/path.h, "Delta vertices", with |cos| and
 //   eta^2 = BsdfSample::eta^2).
 #pragma once
+#include <cmath>
 #include <memory>
 #include <string>
 #include "core/math.h"
@@ -169,10 +170,24 @@ public:
     // walk directions (the walks and connections multiply it into the MIS densities, path.h); a
     // Lambert sample's weight over it is at most 1 in every channel, so no throughput grows.
     float continuation() const { return continuation_; }
+    // valueBound without a request, and with the smallest one that makes a smooth BSDF rough
+    // (alphas raised to kMinAlpha; 0 where none can: index-matched glass), cached by each model's
+    // constructor: JG19's walks read them at every vertex (integrators/transport/jg19.h (2), (4)).
+    float plainBound() const { return plainBound_; }
+    float smoothestBound() const { return smoothestBound_; }
 
 protected:
+    // The last statement of each model's constructor (valueBound is then the model's own).
+    void cacheBounds() {
+        plainBound_ = valueBound(kRadianceContext);
+        BsdfContext smoothest(TransportMode::Radiance);
+        smoothest.reg.minAlpha = {kMinAlpha, kMinAlpha};
+        const float c = valueBound(smoothest);
+        smoothestBound_ = std::isfinite(c) ? c : 0.f;
+    }
     const Lambert* lambert_ = nullptr;
     float continuation_ = 1.f;  // set by each model's constructor
+    float plainBound_ = 0.f, smoothestBound_ = 0.f;
 };
 
 // min(1, max(0, the largest channel of c)): the continuation probability of a lobe scaled by c.

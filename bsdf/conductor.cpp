@@ -15,6 +15,7 @@ public:
                   const Color& k, const Color& specR)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {
         continuation_ = continuationOf(specR);  // the Fresnel factor is <= 1 on top
+        cacheBounds();
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {

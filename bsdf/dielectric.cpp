@@ -23,6 +23,7 @@ public:
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), specR_(specR),
           specT_(specT) {
         continuation_ = std::max(continuationOf(specR), continuationOf(specT));
+        cacheBounds();
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {

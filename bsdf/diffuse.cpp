@@ -11,6 +11,7 @@ public:
     explicit DiffuseBxdf(const Color& r) : model_{r, r * kInvPi} {
         lambert_ = &model_;
         continuation_ = continuationOf(r);
+        cacheBounds();
     }
     DiffuseBxdf(const DiffuseBxdf&) = delete;  // lambert_ points into this object
     DiffuseBxdf& operator=(const DiffuseBxdf&) = delete;
@@ -33,7 +34,10 @@ private:
 // directions are mirrored through the tangent plane (z negated) before calling the inner model.
 class TwoSidedBxdf final : public Bxdf {
 public:
-    explicit TwoSidedBxdf(BxdfPtr inner) : inner_(std::move(inner)) { continuation_ = inner_->continuation(); }
+    explicit TwoSidedBxdf(BxdfPtr inner) : inner_(std::move(inner)) {
+        continuation_ = inner_->continuation();
+        cacheBounds();
+    }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         if (wo.z < 0.f) return inner_->eval(flip(wo), flip(wi), ctx);

@@ -239,6 +239,35 @@ TEST_CASE("valueBound: smooth conductor and dielectric are +inf until a request 
             }
 }
 
+TEST_CASE("plainBound and smoothestBound are the models' valueBound without and with the smallest request", "[valueBound]") {
+    // Cached by each model's constructor for JG19's walks; they must be the values valueBound
+    // gives: without a request, and with the alphas raised to kMinAlpha (0 where that leaves a
+    // delta: index-matched glass).
+    const BxdfPtr models[] = {
+        makeDiffuse(Color(0.5f, 0.7f, 0.2f)),
+        makeConductor(Color(0.2f, 0.9f, 1.1f), Color(3.9f, 2.4f, 2.2f), Color(0.9f, 0.8f, 0.7f)),
+        makeRoughConductor(MicrofacetType::GGX, 0.1f, 0.3f, Color(0.2f), Color(3.f), Color(1.f)),
+        makeRoughConductor(MicrofacetType::Beckmann, 0.05f, 0.05f, Color(0.2f), Color(3.f), Color(1.f), MaskingModel::VCavity),
+        makeDielectric(1.5f),
+        makeDielectric(1.f),
+        makeRoughDielectric(MicrofacetType::GGX, 0.2f, 0.2f, 1.33f),
+        makeTwoSided(makeConductor(Color(0.2f), Color(3.f), Color(1.f))),
+    };
+    RegularizationRequest smallest;
+    smallest.minAlpha = {kMinAlpha, kMinAlpha};
+    for (const BxdfPtr& b : models) {
+        INFO(b->name());
+        CHECK(b->plainBound() == b->valueBound(kRadianceContext));
+        const float c = b->valueBound(BsdfContext(TransportMode::Radiance, smallest));
+        CHECK(b->smoothestBound() == (std::isfinite(c) ? c : 0.f));
+        if (b->isDelta() && b->name() == "dielectric" && b->smoothestBound() == 0.f) continue;  // (eta 1)
+        CHECK(b->smoothestBound() > 0.f);
+    }
+    CHECK(models[5]->smoothestBound() == 0.f);               // index-matched: stays a delta
+    CHECK(std::isinf(models[1]->plainBound()));              // smooth: +inf without a request
+    CHECK(std::isfinite(models[1]->smoothestBound()));
+}
+
 TEST_CASE("valueBound bounds eval of rough Smith conductors and dielectrics over dense pairs", "[valueBound]") {
     std::vector<Material> mats;
     for (MicrofacetType d : {MicrofacetType::GGX, MicrofacetType::Beckmann}) {

@@ -65,20 +65,14 @@ void Jg19::surfaceBounds(const PathVertex& v, float& plain, float& regularised) 
         plain = regularised = maxComp(l->f);
         return;
     }
-    plain = v.bxdf->valueBound(kRadianceContext);
+    plain = v.bxdf->plainBound();
     if (!diffusion()) {
         regularised = v.bxdf->valueBound(radiance_);
         return;
     }
     // (4): the ceiling. A rough lobe changes under any bound below its own; a delta one under a
     // bound that makes it rough at least at kMinAlpha (none: an index-matched dielectric).
-    regularised = plain;
-    if (v.deltaBsdf) {
-        BsdfContext smoothest(TransportMode::Radiance);
-        smoothest.reg.minAlpha = {kMinAlpha, kMinAlpha};
-        const float c = v.bxdf->valueBound(smoothest);
-        regularised = std::isfinite(c) ? c : 0.f;
-    }
+    regularised = v.deltaBsdf ? v.bxdf->smoothestBound() : plain;
 }
 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {
