@@ -50,11 +50,10 @@
 //     The product with the ratio, not its inverse, was our reading until 2026-11-25: measured
 //     on a rough glass sphere round a diffuse body, BPT, tau 30, it had 3.2x the variance of the
 //     sampling-density weights.) Where rho_hat is 0 (Eq. 12's 0/0) the technique is left out.
-//     rho_hat / rho of a vertex is the
-//     same pair of directions in every technique that connects there (its two path neighbours),
-//     so it is computed once per vertex: by the walk when it extends past the vertex
-//     (SubpathState::ratio), by connect and merge at their own ends (Technique::ratioLight,
-//     ratioCamera). The ratio is exact (both BSDFs evaluated), which is what the paper's
+//     rho_hat / rho of a vertex is the same pair of directions in every technique that connects
+//     there (its two path neighbours), so it is computed once per vertex: by the walk when it
+//     extends past the vertex (SubpathState::ratio), by connect and merge at their own ends
+//     (Technique::ratioLight, ratioCamera). The ratio is exact (both BSDFs evaluated), which is what the paper's
 //     evaluation of the pdf with alpha_hat plus the Smith G ratio approximates.
 //     Singular vertices: where rho is a delta (or 0) the ratio is +inf. A path that a technique
 //     sampled through the delta is exactly specular there, and a technique regularising that
