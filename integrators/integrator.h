@@ -45,6 +45,9 @@ struct RenderSettings {
     std::optional<bool> regDiffusion;
 };
 
+// Whether JG19's diffusion heuristic runs for these settings (unset: as the quality heuristic).
+inline bool regDiffusionOf(const RenderSettings& s) { return s.regDiffusion.value_or(s.regQuality); }
+
 // The bound tau of a regulariser's current iteration, for the statistics (0: none).
 inline double regularisationTauOf(const reg::None&) { return 0.0; }
 inline double regularisationTauOf(const reg::Jg19& r) { return r.tau(); }

@@ -1,3 +1,4 @@
+#include <fmt/format.h>
 #include <tbb/blocked_range2d.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
@@ -51,19 +52,22 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         j.tau0 = s.regTau > 0.0 ? s.regTau : regTauDefault(s.integrator);
         if (s.regSchedule == "consistent") j.schedule = reg::Schedule::Consistent;
         else if (s.regSchedule == "fixed") j.schedule = reg::Schedule::Fixed;
-        else throw std::invalid_argument("unknown regularisation schedule '" + s.regSchedule + "' (supported: consistent, fixed)");
+        else throw std::invalid_argument(fmt::format("unknown regularisation schedule '{}' (supported: {})", s.regSchedule,
+                                                     fmt::join(kRegScheduleNames, ", ")));
         if (s.regMis == "regularised") j.mis = reg::MisDensities::Regularised;
         else if (s.regMis == "sampling") j.mis = reg::MisDensities::Sampling;
-        else throw std::invalid_argument("unknown regularisation MIS '" + s.regMis + "' (supported: regularised, sampling)");
+        else throw std::invalid_argument(fmt::format("unknown regularisation MIS '{}' (supported: {})", s.regMis,
+                                                     fmt::join(kRegMisNames, ", ")));
         j.quality = s.regQuality;
-        j.diffusion = s.regDiffusion.value_or(s.regQuality);
+        j.diffusion = regDiffusionOf(s);
         if (j.diffusion && !j.quality)
             throw std::invalid_argument("the JG19 diffusion heuristic (reg_diffusion, --reg-diffusion on) needs the quality "
                                         "heuristic (reg_quality, --reg-quality on): it scales the bound at the vertices "
                                         "that heuristic chooses per path");
         return makeWith(s, reg::Jg19(j));
     }
-    throw std::invalid_argument("unknown regulariser '" + s.regularizer + "' (supported: none, jg19)");
+    throw std::invalid_argument(fmt::format("unknown regulariser '{}' (supported: {})", s.regularizer,
+                                            fmt::join(kRegularizerNames, ", ")));
 }
 
 Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,

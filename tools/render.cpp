@@ -219,7 +219,7 @@ int main(int argc, char** argv) {
             j["reg_schedule"] = settings.regSchedule;
             j["reg_mis"] = settings.regMis;
             j["reg_quality"] = settings.regQuality;
-            j["reg_diffusion"] = settings.regDiffusion.value_or(settings.regQuality);
+            j["reg_diffusion"] = regDiffusionOf(settings);
             j["reg_tau_last"] = stats.tau;
             j["contributions"] = stats.contributions;
             j["regularised_contributions"] = stats.regularisedContributions;
