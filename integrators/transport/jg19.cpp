@@ -24,6 +24,8 @@ void Jg19::setIteration(uint64_t n) {
 
 void Jg19::setLimits() {
     loosest_ = radiance_;
+    const double tau = double(radiance_.reg.tau);
+    tauSqExit_ = float(tau * tau * (1.0 - 1e-4));
     if (diffusion()) loosest_.reg.tau = float(double(radiance_.reg.tau) / Diffusion::kMaxSpread);  // (4)
 }
 

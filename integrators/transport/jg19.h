@@ -140,8 +140,20 @@ public:
             }
         return BsdfContext(mode);
     }
-    // (2), (5)
-    bool select(Technique& tech) const { return select(tech, true); }
+    // (2), (5). The commonest answer inline: a connection whose ends' changeable counts are 0, or
+    // whose own or running-minimum term is under tau^2 (connectionUnder), is unregularised;
+    // everything else (emitter hits, merges, ends at infinity, the loop) is the out-of-line form.
+    bool select(Technique& tech) const {
+        if (settings_.quality && !tech.photon && tech.s >= 1 && tech.t >= 1) {
+            const PathVertex &a = tech.y[tech.s - 1], &b = tech.z[tech.t - 1];
+            const bool nothingChangeable = a.regState.changeable + b.regState.changeable == 0.f;
+            if (nothingChangeable || (allowsTechnique(set_, tech.s, tech.t) && connectionUnder(a, b))) {
+                tech.regularised[0] = tech.regularised[1] = -1;
+                return nothingChangeable || (a.connectible() && b.connectible());  // Eq. 18's answer
+            }
+        }
+        return select(tech, true);
+    }
     // select() without its O(1) exit (q < tau^2 from the subpaths' running minima): the plain
     // form over the whole path, which select() must agree with (tests).
     bool selectByLoop(Technique& tech) const { return select(tech, false); }
@@ -226,6 +238,23 @@ private:
     }
     bool diffusion() const { return settings_.quality && settings_.diffusion; }
     bool select(Technique& tech, bool shortcut) const;
+    // The O(1) exit of select() for a connection a - b (a = y[s-1], b = z[t-1], both finite; a
+    // technique of the running integrator, so its own segment's term is one of Eq. 17's), in
+    // float: the joining segment's term rho_bar_a rho_bar_b (d_path / d)^2, or (BPT, VCM) d_path^2
+    // times the subpaths' running minima, is under tau^2 with the margin of the out-of-line exit
+    // (1e-4, far above float's rounding here), so the loop's q in double is under tau^2 too.
+    // False where a term cannot be formed in float (d = 0, overflow): the out-of-line form decides.
+    bool connectionUnder(const PathVertex& a, const PathVertex& b) const {
+        if (a.infinite || b.infinite) return false;
+        const Vec3 ab = a.p - b.p;
+        const float d2 = glm::dot(ab, ab);
+        if (!(d2 > 0.f)) return false;
+        const float dPath = a.pathLength + b.pathLength + std::sqrt(d2);
+        const float dPath2 = dPath * dPath;
+        if (a.regState.rhoBar * b.regState.rhoBar * dPath2 < tauSqExit_ * d2) return true;
+        return set_ == TechniqueSet::Bidirectional &&
+               std::min(a.regState.connectionMin, b.regState.connectionMin) * dPath2 < tauSqExit_;
+    }
     void setLimits();  // loosest_ from tau_n
     // tau' = tau_n / sigma (Eq. 19).
     float boundAt(double spread) const {
@@ -234,6 +263,7 @@ private:
     BsdfContext radiance_{TransportMode::Radiance}, importance_{TransportMode::Importance};
     // The smallest bound a vertex gets: tau_n, or tau_n / kMaxSpread with diffusion ((4), connectible).
     BsdfContext loosest_{TransportMode::Radiance};
+    float tauSqExit_ = 0.f;  // tau_n^2 (1 - 1e-4), connectionUnder's threshold (setLimits)
     // The quality heuristic's view of the running integrator (beginIteration).
     float cameraBound_ = 1.f;
     TechniqueSet set_ = TechniqueSet::Bidirectional;
