@@ -28,7 +28,7 @@ struct RenderSettings {
     // and the radius reduction exponent: r_i = r_0 i^((alpha - 1) / 2).
     float radius = -1.f;
     float radiusAlpha = 0.75f;
-    std::string strategyImages;  // BPT/VCM: directory for per-technique images ("" = none)
+    std::string strategyImages;  // directory for per-technique images ("" = none; integrators/strategy_images.h)
     // Debugging/tests: evaluate only connection technique (s, t), unweighted (-1 = all, weighted).
     int onlyS = -1, onlyT = -1;
     // Test hook: scales the MIS weights of connections with s >= 2 (1 = correct).

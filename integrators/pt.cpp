@@ -2,8 +2,10 @@
 // path-vertex store, evaluated with the two techniques s = 0 (emitter hit) and s = 1 (NEE).
 // A class template on the regulariser policy (integrators/transport/regularizer.h), which the
 // loop passes to the walk, emitterHit and connect without knowing which one runs.
+#include <memory>
 #include <stdexcept>
 #include "integrators/integrator.h"
+#include "integrators/strategy_images.h"
 
 namespace lt {
 
@@ -20,27 +22,32 @@ public:
     }
     std::string name() const override { return "pt"; }
     void beginPass(const Scene& scene, Film&, uint32_t pass, WalkStats&) override {
+        if (pass == 0 && !settings_.strategyImages.empty())
+            strategies_ = std::make_unique<StrategyImages>(scene.camera().width(), scene.camera().height(),
+                                                           maxDepthOf(settings_));
         // The techniques a regulariser's choice may count on: next-event estimation's connection
         // (none when only BSDF sampling runs).
         const MisConfig cfg{strategy_ == Strategy::Bsdf ? TechniqueSet::None : TechniqueSet::PathTracer};
         reg_.beginIteration(uint64_t(pass) + 1, scene, cfg);
     }
     double regularisationTau() const override { return regularisationTauOf(reg_); }
+    void finish(const Scene&, uint64_t passes) override {
+        if (strategies_) strategies_->write(settings_.strategyImages, passes);
+    }
 
     void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
                     WalkStats& stats) const override {
-        // Camera subpath: the camera plus at most max_depth surface vertices.
-        int maxDepth = settings_.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(settings_.maxDepth, kMaxPathVertices - 2);
+        const int maxDepth = maxDepthOf(settings_);
         // Work records made once per tile (not per sample): the walk's vertices and the emitter hits'
         // pdfs (written before they are read).
         std::array<PathVertex, kMaxPathVertices> z;
         PathPdfs pdfs;
         for (int y = y0; y < y1; ++y)
             for (int x = x0; x < x1; ++x) {
-                uint64_t pixel = uint64_t(y) * film.width() + x;
+                uint32_t pixel = uint32_t(y) * film.width() + x;
                 Rng rng = Rng::forSample(settings_.seed, pixel, pass);
                 Vec2 raster = Vec2(float(x), float(y)) + film.samplePixelOffset(rng.uniform2());
-                Color L = radiance(scene, raster, rng, maxDepth, z.data(), pdfs, stats);
+                Color L = radiance(scene, raster, pixel, rng, maxDepth, z.data(), pdfs, stats);
                 film.addSample(x, y, L);
                 film.addSampleCount(x, y, 1);
             }
@@ -54,8 +61,8 @@ public:
     // time (within the shared machine's noise) and -2.2% / -1.6%, -2.4% / -1.7% instructions. All kept:
     // none touches the regulariser's hooks, and without the last two PT would run ~2% more
     // instructions than before the seam.
-    [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, Rng& rng, int maxDepth, PathVertex* z,
-                                    PathPdfs& pdfs, WalkStats& stats) const {
+    [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, uint32_t pixel, Rng& rng, int maxDepth,
+                                    PathVertex* z, PathPdfs& pdfs, WalkStats& stats) const {
         int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, rrDepthOf(settings_), z, stats, WalkPdfs::EmitterHits);
         Color L(0.f);
         const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
@@ -68,8 +75,7 @@ public:
                 if (!isBlack(c)) {
                     const Color weighted =
                         c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
-                    L += weighted;
-                    if constexpr (Reg::kPerTechnique) stats.countContribution(weighted, false);
+                    record(L, weighted, 0, t, pixel, false, stats);
                 }
             }
             // s = 1: next-event estimation (t segments).
@@ -83,8 +89,7 @@ public:
                     const Color weighted = conn.contribution * (strategy_ == Strategy::Mis
                                                                     ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer)
                                                                     : 1.f);
-                    L += weighted;
-                    if constexpr (Reg::kPerTechnique) stats.countContribution(weighted, conn.pdfs.regularised);
+                    record(L, weighted, 1, t, pixel, conn.pdfs.regularised, stats);
                 }
             }
         }
@@ -92,10 +97,22 @@ public:
     }
 
 private:
+    // Camera subpath: the camera plus at most max_depth surface vertices.
+    static int maxDepthOf(const RenderSettings& s) {
+        return s.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(s.maxDepth, kMaxPathVertices - 2);
+    }
+    // A weighted contribution of technique (s, t), with whether its own technique was regularised.
+    void record(Color& L, const Color& c, int s, int t, uint32_t pixel, bool regularised, WalkStats& stats) const {
+        L += c;
+        if (strategies_) strategies_->add(false, s, t, pixel, c, regularised);
+        if constexpr (Reg::kPerTechnique) stats.countContribution(c, regularised);
+    }
+
     enum class Strategy { Mis, Nee, Bsdf };
     RenderSettings settings_;
     Reg reg_;
     Strategy strategy_ = Strategy::Mis;
+    std::unique_ptr<StrategyImages> strategies_;  // --strategy-images
 };
 
 }  // namespace

@@ -9,57 +9,15 @@
 // pixel's own light subpath (n_VC = 1) and merges against all light subpaths (n_VM = W x H).
 #include <tbb/parallel_for.h>
 #include <atomic>
-#include <filesystem>
 #include <fmt/core.h>
-#include <mutex>
 #include <stdexcept>
 #include "integrators/transport/light_paths.h"
 #include "integrators/integrator.h"
+#include "integrators/strategy_images.h"
 
 namespace lt {
 
 namespace {
-
-// Per-technique images for debugging (--strategy-images): connections (s, t) and merges by the
-// number of light vertices s = i + 1.
-class StrategyImages {
-public:
-    StrategyImages(int w, int h, int maxLen) : w_(w), h_(h), maxLen_(maxLen) {
-        conn_.resize(size_t(maxLen + 2) * (maxLen + 2));
-        merge_.resize(size_t(maxLen + 2));
-    }
-    void add(bool isMerge, int s, int t, uint32_t pixel, const Color& c, bool regularised) {
-        if (s > maxLen_ + 1 || t > maxLen_ + 1) return;
-        auto& img = isMerge ? merge_[s] : conn_[size_t(s) * (maxLen_ + 2) + t];
-        std::lock_guard<std::mutex> lock(m_);  // debugging aid: simplicity over speed
-        if (img.empty()) img.assign(size_t(w_) * h_, glm::dvec3(0.0));
-        img[pixel] += glm::dvec3(c);
-        if (regularised) {  // the part of the image whose own technique was regularised
-            if (regularised_.empty()) regularised_.assign(size_t(w_) * h_, glm::dvec3(0.0));
-            regularised_[pixel] += glm::dvec3(c);
-        }
-    }
-    void write(const std::string& dir, uint64_t passes) const {
-        std::filesystem::create_directories(dir);
-        auto save = [&](const std::vector<glm::dvec3>& img, const std::string& name) {
-            if (img.empty()) return;
-            Image out(w_, h_);
-            for (size_t i = 0; i < img.size(); ++i) out.pixels[i] = Color(img[i] / double(std::max<uint64_t>(passes, 1)));
-            writeExr(out, dir + "/" + name);
-        };
-        for (int s = 0; s <= maxLen_ + 1; ++s) {
-            for (int t = 0; t <= maxLen_ + 1; ++t) save(conn_[size_t(s) * (maxLen_ + 2) + t], fmt::format("s{}_t{}.exr", s, t));
-            save(merge_[s], fmt::format("merge_s{}.exr", s));
-        }
-        save(regularised_, "regularised.exr");
-    }
-
-private:
-    int w_, h_, maxLen_;
-    std::mutex m_;
-    std::vector<std::vector<glm::dvec3>> conn_, merge_;
-    std::vector<glm::dvec3> regularised_;
-};
 
 // A class template on the regulariser policy (integrators/transport/regularizer.h), which the loops
 // pass to the walks, connect, emitterHit and merge without knowing which one runs.

@@ -122,32 +122,61 @@ TEST_CASE("the external public scenes render at low resolution", "[cli][external
 }
 
 TEST_CASE("render with --strategy-images writes per-technique images that sum to the image", "[cli][bpt]") {
+    // Every integrator: PT's emitter hits (s = 0) and next-event estimation (s = 1), BPT's and
+    // VCM's connections with light tracing (t = 1), VCM's merges. Under JG19 also
+    // regularised.exr, the part of the image whose own technique was regularised: on the glass
+    // ball round a point light, PT's and BPT's light through the glass (JG19 regularises it and
+    // nothing else reaches it with PT; a positive share), never more than the image.
     fs::path dir = tempDir("strategies");
-    for (std::string integ : {"bpt", "vcm"}) {
-        fs::path out = dir / (integ + ".exr"), sdir = dir / integ;
-        Run r = run(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml -D res=16 --spp 2 --max-depth 4 --quiet --integrator " +
-                    integ + " -o " + out.string() + " --strategy-images " + sdir.string() +
-                    // a radius at which 2 spp of 16 x 16 surely merge (the default merges a few
-                    // times in 8 spp: whether one happens in 2 depended on the seed's luck)
-                    (integ == "vcm" ? " --radius 0.05" : ""));
-        INFO(r.output);
+    struct Case {
+        std::string integ, scene, extra;
+    };
+    const std::string box = std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml",
+                      glass = std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml";
+    // (VCM: a radius at which 2 spp of 16 x 16 surely merge; the default merges a few times in
+    // 8 spp: whether one happens in 2 depended on the seed's luck.)
+    for (const Case& c : {Case{"pt", box, ""}, Case{"bpt", box, ""}, Case{"vcm", box, " --radius 0.05"},
+                          Case{"pt", glass, " --reg jg19"}, Case{"bpt", glass, " --reg jg19"}}) {
+        const bool reg = !c.extra.empty() && c.extra.find("jg19") != std::string::npos;
+        const std::string tag = c.integ + (reg ? "-jg19" : "");
+        fs::path out = dir / (tag + ".exr"), sdir = dir / tag;
+        Run r = run(c.scene + " -D res=16 --spp 2 --max-depth 4 --quiet --integrator " + c.integ + " -o " + out.string() +
+                    " --strategy-images " + sdir.string() + c.extra);
+        INFO(tag << ": " << r.output);
         REQUIRE(r.code == 0);
         lt::Image img = lt::readImage(out.string());
         lt::Image sum(img.width, img.height);
         int files = 0;
-        bool sawMerge = false, sawLightTracing = false;
+        bool sawMerge = false, sawLightTracing = false, sawEmitterHit = false, sawNee = false, sawRegularised = false;
+        double regularisedSum = 0.0;
         for (const auto& e : fs::directory_iterator(sdir)) {
             lt::Image s = lt::readImage(e.path().string());
+            const std::string name = e.path().filename().string();
+            if (name == "regularised.exr") {
+                sawRegularised = true;
+                for (size_t i = 0; i < s.pixels.size(); ++i)
+                    for (int k = 0; k < 3; ++k) {
+                        regularisedSum += s.pixels[i][k];
+                        CHECK(s.pixels[i][k] <= img.pixels[i][k] * (1.f + 1e-4f) + 1e-6f);
+                    }
+                continue;
+            }
             for (size_t i = 0; i < s.pixels.size(); ++i) sum.pixels[i] += s.pixels[i];
             ++files;
-            sawMerge |= e.path().filename().string().rfind("merge_", 0) == 0;
-            sawLightTracing |= e.path().filename().string().find("_t1.exr") != std::string::npos;
+            sawMerge |= name.rfind("merge_", 0) == 0;
+            sawLightTracing |= name.find("_t1.exr") != std::string::npos;
+            sawEmitterHit |= name.rfind("s0_", 0) == 0;
+            sawNee |= name.rfind("s1_", 0) == 0;
         }
-        CHECK(files >= 6);
-        CHECK(sawLightTracing);
-        CHECK(sawMerge == (integ == "vcm"));
+        CHECK(files >= (c.integ == "pt" ? 3 : 6));  // (PT: next-event estimation at t = 2, 3, 4 at least)
+        CHECK(sawLightTracing == (c.integ != "pt"));
+        CHECK(sawMerge == (c.integ == "vcm"));
+        CHECK(sawNee);
+        if (c.scene == box) CHECK(sawEmitterHit);  // (the point light in the glass cannot be hit)
+        CHECK(sawRegularised == reg);
+        if (reg) CHECK(regularisedSum > 0.0);
         for (size_t i = 0; i < img.pixels.size(); ++i)
-            for (int c = 0; c < 3; ++c) CHECK(sum.pixels[i][c] == Approx(img.pixels[i][c]).epsilon(1e-4).margin(1e-6));
+            for (int k = 0; k < 3; ++k) CHECK(sum.pixels[i][k] == Approx(img.pixels[i][k]).epsilon(1e-4).margin(1e-6));
     }
 }
 
