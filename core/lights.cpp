@@ -56,7 +56,7 @@ AreaPdf Light::pdfLePos(const Scene& scene) const {
         case LightType::Point:
         case LightType::Spot: return AreaPdf(1.f);
         case LightType::Directional:
-        case LightType::Constant: return AreaPdf(1.f / (kPi * sqr(scene.boundsRadius())));
+        case LightType::Constant: return AreaPdf(1.f / (kPi * sqr(scene.geometryRadius())));
     }
     return AreaPdf(0.f);
 }
@@ -106,8 +106,9 @@ LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& 
         case LightType::Constant: {
             s.dir = type == LightType::Directional ? direction : -sampleUniformSphere(uDir);
             Frame f(s.dir);
-            Vec2 d = sampleConcentricDisk(uPos) * scene.boundsRadius();
-            s.p = scene.boundsCenter() - s.dir * scene.boundsRadius() + f.s * d.x + f.t * d.y;
+            // On the disk facing dir that covers the geometry's bounding sphere, behind it.
+            Vec2 d = sampleConcentricDisk(uPos) * scene.geometryRadius();
+            s.p = scene.geometryCenter() - s.dir * scene.geometryRadius() + f.s * d.x + f.t * d.y;
             s.n = s.dir;
             s.value = value;
             s.pdfPos = pdfLePos(scene);
@@ -119,7 +120,7 @@ LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& 
 }
 
 float Light::power(const Scene& scene) const {
-    float r2 = sqr(scene.boundsRadius());
+    float r2 = sqr(scene.geometryRadius());  // (lights at infinity: the flux onto the geometry's disk)
     switch (type) {
         case LightType::Area: return kPi * area * luminance(value);
         case LightType::Point: return 4.f * kPi * luminance(value);

@@ -223,6 +223,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
 
     camera_ = std::make_unique<Camera>(desc_.camera);
     geometryRadius_ = lo.x <= hi.x ? std::max(0.5f * glm::length(hi - lo), 1e-6f) : 0.f;
+    geometryCenter_ = 0.5f * (lo + hi);
     // Bounds include the camera so that lights at infinity cover everything seen.
     lo = glm::min(lo, camera_->position());
     hi = glm::max(hi, camera_->position());
@@ -230,7 +231,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     radius_ = std::max(0.5f * glm::length(hi - lo), 1e-6f);
     // Offsets scale with the scene: the same image for a scene scaled by 1e-3 or 1e3.
     offsetScale_ = radius_ * 2e-6f;
-    if (geometryRadius_ == 0.f) geometryRadius_ = radius_;
+    if (geometryRadius_ == 0.f) geometryRadius_ = radius_, geometryCenter_ = center_;
 
     // Lights.
     lights_.reserve(desc_.emitters.size());

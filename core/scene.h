@@ -86,9 +86,15 @@ public:
     float lightSelectionProb(const Light* l) const;
     // Lights that a ray escaping the scene sees (constant environment).
     const std::vector<const Light*>& infiniteLights() const { return envLights_; }
+    // The sphere bounding the geometry and the camera (a point at 2 x its radius from any of
+    // them is beyond everything: the far ends of rays to infinity).
     Vec3 boundsCenter() const { return center_; }
-    float boundsRadius() const { return radius_; }           // geometry and camera
-    float geometryRadius() const { return geometryRadius_; }  // geometry only (merge radius default)
+    float boundsRadius() const { return radius_; }
+    // The sphere bounding the geometry alone: the merge radius's default, and the disk that
+    // light paths from lights at infinity start on (as SmallVCM and pbrt-v4: a ray that misses
+    // it hits nothing, and one from the camera's side of it would be wasted).
+    Vec3 geometryCenter() const { return geometryCenter_; }
+    float geometryRadius() const { return geometryRadius_; }
 
     const SceneDesc& desc() const { return desc_; }
     size_t triangleCount() const { return triangleCount_; }
@@ -142,6 +148,7 @@ private:
     std::vector<Distribution1D> meshTriDist_;
     Vec3 center_{0.f};
     float radius_ = 1.f, geometryRadius_ = 1.f;
+    Vec3 geometryCenter_{0.f};
     float offsetScale_ = 0.f;  // scene-relative part of the ray offset
     size_t triangleCount_ = 0;
 };
