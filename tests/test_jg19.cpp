@@ -729,7 +729,8 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
 TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as the loop over the path", "[jg19][quality]") {
     // select() answers "unregularised" in O(1) when a connection term it knows without the loop
     // (the joining segment, an emitter hit's first segment, d_path^2 times the walks' running
-    // minima SubpathState::connectionMin) is below tau^2; selectByLoop() is the plain form over
+    // minima SubpathState::connectionMin, with merging d_path^2 / (N pi r^2) times the minima
+    // SubpathState::mergeMin) is below tau^2; selectByLoop() is the plain form over
     // the whole path. On BPT, VCM (merges too) and PT techniques of random walks in the box with
     // the glossy panel, the glass and mirror balls, the area light and a point light in the glass,
     // both must return the same answer, the same vertices and the same bounds, for tau 30 and
@@ -738,15 +739,20 @@ TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as 
     // comparison covers both outcomes. (Emitter hits on regularised paths, E S ... L with a tiny
     // light, are too rare here: the hand-computed paths of the test above compare both forms on
     // one.) And the running minima equal a recomputation over each walk's segments (relative
-    // 1e-6: float storage of a double quotient).
+    // 1e-6: float storage of a double quotient; the merge minima exactly).
     SceneDesc desc = mixedSceneWithPointInGlass(16);
     Scene scene(desc);
     const bool diffusion = GENERATE(false, true);
     const double tau = GENERATE(30.0, 1000.0);
-    const int setIndex = GENERATE(0, 1, 2);  // BPT, VCM (merging), PT
+    // BPT, VCM (merging), PT, and VCM with a merge density N pi r^2 = 4 / tau^2 that puts the
+    // merge terms (rho_bar ~ 0.2, d_path ~ 3-10) on both sides of tau^2, so that the exit from the
+    // merge minima decides (with 0.05, nearly every merge term is far below tau^2).
+    const int setIndex = GENERATE(0, 1, 2, 3);
     INFO("diffusion " << diffusion << " tau " << tau << " set " << setIndex);
-    const MisConfig cfg{setIndex == 2 ? TechniqueSet::PathTracer : TechniqueSet::Bidirectional, setIndex == 1,
-                        kPi * 0.05f * 0.05f, 256.f};
+    const bool merging = setIndex == 1 || setIndex == 3;
+    const float mergeArea = setIndex == 3 ? float(4.0 / (tau * tau) / 256.0) : kPi * 0.05f * 0.05f;
+    const MisConfig cfg{setIndex == 2 ? TechniqueSet::PathTracer : TechniqueSet::Bidirectional, merging, mergeArea,
+                        256.f};
     const reg::Jg19 jg = fixedTau(tau, scene, cfg, diffusion);
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> y, z;
@@ -769,12 +775,16 @@ TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as 
     };
     auto checkMinima = [&](const PathVertex* w, int n) {
         double m = kInf;
+        float merge = kInf;
+        CHECK(std::isinf(w[0].regState.mergeMin));  // (an endpoint: never a merge)
         for (int k = 1; k < n; ++k) {
             const double a = w[k - 1].regState.rhoBar, b = w[k].regState.rhoBar, d = w[k].segmentLength;
             if (a == 0.0 || b == 0.0) m = 0.0;
             else if (std::isfinite(d) && d > 0.0) m = std::min(m, a * b / (d * d));
             if (std::isinf(m)) CHECK(std::isinf(w[k].regState.connectionMin));
             else CHECK(w[k].regState.connectionMin == Approx(m).epsilon(1e-6));
+            if (w[k].connectible()) merge = std::min(merge, w[k].regState.rhoBar);
+            CHECK(w[k].regState.mergeMin == merge);
         }
     };
     for (uint64_t i = 0; i < 400; ++i) {

@@ -67,8 +67,8 @@ bool samePdfs(const PathPdfs& a, const PathPdfs& b) {
 }  // namespace
 
 TEST_CASE("regulariser seam: per-subpath state is carried on every vertex", "[regularizer]") {
-    // The state: eight floats at the end of the record (168 bytes).
-    static_assert(sizeof(PathVertex) == 168);
+    // The state: nine floats at the end of the record (176 bytes).
+    static_assert(sizeof(PathVertex) == 176);
     Scene scene(testScene());
     WalkStats ws;
     const CountingState counting;

@@ -45,6 +45,7 @@ void Jg19::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) 
     set_ = cfg.set;
     merging_ = cfg.merging;
     mergeDensity_ = double(cfg.mergeArea) * double(cfg.lightPaths);
+    mergeDensityF_ = float(mergeDensity_);
 }
 
 float Jg19::lightBound(const Light& light) {
@@ -210,6 +211,15 @@ bool Jg19::select(Technique& tech, bool shortcut) const {
             if (lastCamera >= 0) m = std::min(m, double(tech.z[lastCamera].regState.connectionMin));
             if (m == 0.0) known = 0.0;
             else if (dPath > 0.0) known = std::min(known, m * sqr(dPath));
+        }
+        // The merges' terms (the merge at x_i: rho_bar_i d_path^2 / (N pi r^2), x_i inner and
+        // connectible: on the light subpath after x_0, on the camera subpath before an emitter).
+        if (merging_ && mergeDensity_ > 0.0) {
+            double m = kInf;
+            if (path.lightCount >= 1) m = tech.y[path.lightCount - 1].regState.mergeMin;
+            const int lastCamera = tech.s == 0 ? tech.t - 2 : tech.t - 1;
+            if (lastCamera >= 0) m = std::min(m, double(tech.z[lastCamera].regState.mergeMin));
+            known = std::min(known, m * (sqr(dPath) / mergeDensity_));
         }
         // The emitter hit's term where x_1 is not a delta (nothing to unfold).
         if (allowsTechnique(set_, 0, n) && n >= 2) {

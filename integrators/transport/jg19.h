@@ -30,8 +30,10 @@
 //     Cost: q < tau^2 is the common answer, and it is known in O(1) when a term known without
 //     the loop over the path is under tau^2: the joining segment's, and with every connection a
 //     technique (BPT, VCM) d_path^2 times the walks' running minima of rho_bar_a rho_bar_b / d^2
-//     over each subpath's segments (SubpathState::connectionMin). Only the other paths take the
-//     O(n) loop (selectByLoop: the plain form, which tests compare it with).
+//     over each subpath's segments (SubpathState::connectionMin), and with merging (VCM)
+//     d_path^2 / (N pi r^2) times their running minima of rho_bar over the vertices a merge can
+//     use (SubpathState::mergeMin). Only the other paths take the O(n) loop (selectByLoop: the
+//     plain form, which tests compare it with).
 //     Every technique then evaluates the same integrand on this path: those whose connection
 //     ends contain the regularised vertices compete with their sampling densities (Eq. 13's
 //     rho_hat / rho factors are common to all of them and cancel), the others (walking through a
@@ -185,6 +187,7 @@ public:
             surfaceBounds(v, st.rhoBar, st.rhoBarReg);
             st.connectionMin = std::min(prev.regState.connectionMin,
                                         segmentTerm(prev.regState.rhoBar, st.rhoBar, v.segmentLength));
+            st.mergeMin = v.connectible() ? std::min(prev.regState.mergeMin, st.rhoBar) : prev.regState.mergeMin;
             if (!diffusion()) {
                 st.changeable = prev.regState.changeable + (st.rhoBarReg < st.rhoBar ? 1.f : 0.f);
                 return;
@@ -241,7 +244,8 @@ private:
     // The O(1) exit of select() for a connection a - b (a = y[s-1], b = z[t-1], both finite; a
     // technique of the running integrator, so its own segment's term is one of Eq. 17's), in
     // float: the joining segment's term rho_bar_a rho_bar_b (d_path / d)^2, or (BPT, VCM) d_path^2
-    // times the subpaths' running minima, is under tau^2 with the margin of the out-of-line exit
+    // times the subpaths' running minima (VCM: their merge terms too), is under tau^2 with the
+    // margin of the out-of-line exit
     // (1e-4, far above float's rounding here), so the loop's q in double is under tau^2 too.
     // False where a term cannot be formed in float (d = 0, overflow): the out-of-line form decides.
     bool connectionUnder(const PathVertex& a, const PathVertex& b) const {
@@ -252,8 +256,10 @@ private:
         const float dPath = a.pathLength + b.pathLength + std::sqrt(d2);
         const float dPath2 = dPath * dPath;
         if (a.regState.rhoBar * b.regState.rhoBar * dPath2 < tauSqExit_ * d2) return true;
-        return set_ == TechniqueSet::Bidirectional &&
-               std::min(a.regState.connectionMin, b.regState.connectionMin) * dPath2 < tauSqExit_;
+        if (set_ == TechniqueSet::Bidirectional &&
+            std::min(a.regState.connectionMin, b.regState.connectionMin) * dPath2 < tauSqExit_)
+            return true;
+        return merging_ && std::min(a.regState.mergeMin, b.regState.mergeMin) * dPath2 < tauSqExit_ * mergeDensityF_;
     }
     void setLimits();  // loosest_ from tau_n
     // tau' = tau_n / sigma (Eq. 19).
@@ -269,6 +275,7 @@ private:
     TechniqueSet set_ = TechniqueSet::Bidirectional;
     bool merging_ = false;
     double mergeDensity_ = 0.0;  // N pi r^2
+    float mergeDensityF_ = 0.f;   // (for connectionUnder, in float)
 };
 
 }  // namespace lt::reg

@@ -74,8 +74,9 @@ struct Photon;
 struct MisConfig;
 class Scene;
 
-// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Eight floats: the
-// record is 168 bytes with them (160 with six, 144 with two, which fit the tail padding).
+// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Nine floats: the
+// record is 176 bytes with them (168 with eight, 160 with six, 144 with two, which fit the tail
+// padding).
 struct SubpathState {
     float accumulated = 0.f;  // (JG19: the number of vertices before this one whose ratio is finite, not 1)
     // JG19: rho_hat / rho at this vertex, between its two neighbours on its own subpath (written
@@ -96,6 +97,10 @@ struct SubpathState {
     // is 0; +inf with no such segment). Its connection terms of Eq. 17 are d_path^2 times these,
     // so select() can tell that q < tau^2 without the path's loop (jg19.h (2)).
     float connectionMin = kInf;
+    // JG19's quality heuristic with merging (VCM): the smallest rho_bar over the vertices of this
+    // subpath after its endpoint up to here where a merge can happen (connectible(); +inf with
+    // none). The merge terms of Eq. 17 are d_path^2 / (N pi r^2) times these (jg19.h (2)).
+    float mergeMin = kInf;
 };
 
 // The vertices of the technique that connect, emitterHit or merge evaluates.
