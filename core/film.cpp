@@ -25,13 +25,14 @@ bool Film::addSample(int x, int y, const Color& c) {
     return true;
 }
 
-bool Film::splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t strategyS, bool regularised) {
+bool Film::splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t strategyS, bool regularised,
+                 bool singular) {
     if (!valid(c)) {
         ++invalid_;
         return false;
     }
     int x = std::clamp(int(raster.x), 0, width_ - 1), y = std::clamp(int(raster.y), 0, height_ - 1);
-    buf.splats.push_back({uint32_t(size_t(y) * width_ + x), c, strategyS, regularised});
+    buf.splats.push_back({uint32_t(size_t(y) * width_ + x), c, strategyS, regularised, singular});
     return true;
 }
 

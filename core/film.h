@@ -13,8 +13,9 @@ namespace lt {
 // Splats collected by one fixed chunk of work; merged into the film in chunk order, so the
 // result does not depend on which thread ran which chunk.
 struct SplatBuffer {
-    // strategyS: light vertices, regularised: the technique evaluated a regularised BSDF (debug images)
-    struct Splat { uint32_t pixel; Color value; uint16_t strategyS; bool regularised; };
+    // strategyS: light vertices, regularised: the technique evaluated a regularised BSDF,
+    // singular: no unregularised technique can produce the path (debug images)
+    struct Splat { uint32_t pixel; Color value; uint16_t strategyS; bool regularised, singular; };
     std::vector<Splat> splats;
     void clear() { splats.clear(); }
 };
@@ -36,7 +37,8 @@ public:
     void addSampleCount(int x, int y, uint32_t n) { count_[size_t(y) * width_ + x] += n; }
 
     // Thread-safe: records a light-tracing splat into the caller's buffer (rejects invalid values).
-    bool splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t strategyS = 0, bool regularised = false);
+    bool splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t strategyS = 0, bool regularised = false,
+               bool singular = false);
     // Merge buffers (call in a fixed order). Splats are summed and divided by the number of
     // splat passes given to develop().
     void mergeSplats(const SplatBuffer& buf);

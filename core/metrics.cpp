@@ -84,13 +84,19 @@ std::optional<std::pair<int, int>> findNonFinite(const Image& img, const CropRec
     return std::nullopt;
 }
 
-ErrorMetrics computeMetrics(const Image& img, const Image& ref, const CropRect* crop) {
-    const CropRect r = checkInputs(img, ref, crop);
+namespace {
+
+// The metrics over the rectangle r, leaving out the pixels whose `excluded` entry (row-major over
+// the whole image) is true.
+ErrorMetrics metricsOver(const Image& img, const Image& ref, const CropRect& r, const std::vector<bool>* excluded) {
     // Per-row partial sums keep the double accumulation accurate for large images.
     double sumA = 0, sumB = 0, sumSq = 0, sumRel = 0, sumRe = 0, sumApe = 0;
+    size_t pixels = 0;
     for (int y = r.y; y < r.y + r.h; ++y) {
         double rowA = 0, rowB = 0, rowSq = 0, rowRel = 0, rowRe = 0, rowApe = 0;
         for (int x = r.x; x < r.x + r.w; ++x) {
+            if (excluded && (*excluded)[size_t(y) * img.width + x]) continue;
+            ++pixels;
             const Color& ca = img.at(x, y);
             const Color& cb = ref.at(x, y);
             for (int c = 0; c < 3; ++c) {
@@ -106,7 +112,8 @@ ErrorMetrics computeMetrics(const Image& img, const Image& ref, const CropRect* 
         sumA += rowA; sumB += rowB; sumSq += rowSq; sumRel += rowRel; sumRe += rowRe; sumApe += rowApe;
     }
     ErrorMetrics m;
-    m.pixels = size_t(r.w) * size_t(r.h);
+    m.pixels = pixels;
+    if (pixels == 0) return m;
     const double n = 3.0 * double(m.pixels);
     m.meanImage = sumA / n;
     m.meanReference = sumB / n;
@@ -115,6 +122,21 @@ ErrorMetrics computeMetrics(const Image& img, const Image& ref, const CropRect* 
     m.rmsRelErr = std::sqrt(sumRe / n);
     m.mape = sumApe / n;
     return m;
+}
+
+}  // namespace
+
+ErrorMetrics computeMetrics(const Image& img, const Image& ref, const CropRect* crop) {
+    return metricsOver(img, ref, checkInputs(img, ref, crop), nullptr);
+}
+
+ErrorMetrics computeMetrics(const Image& img, const Image& ref, const std::vector<bool>& excluded) {
+    const CropRect r = checkInputs(img, ref, nullptr);
+    if (excluded.size() != size_t(img.width) * size_t(img.height))
+        throw std::invalid_argument("computeMetrics: the exclusion mask has " + std::to_string(excluded.size()) +
+                                    " entries for a " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                                    " image");
+    return metricsOver(img, ref, r, &excluded);
 }
 
 Image errorMap(const Image& img, const Image& ref, Metric metric, const CropRect* crop) {

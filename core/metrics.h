@@ -59,6 +59,9 @@ inline double mapeTerm(double a, double b) { return std::abs(a - b) / (std::abs(
 // a crop rectangle that is empty or not inside the image, a non-finite value in either image
 // inside the compared region (message names the image and the pixel).
 ErrorMetrics computeMetrics(const Image& img, const Image& ref, const CropRect* crop = nullptr);
+// Over the pixels whose entry of `excluded` (row-major, one per pixel) is false; pixels = their
+// number (0: all other fields 0). Throws as above, and for a mask of another size.
+ErrorMetrics computeMetrics(const Image& img, const Image& ref, const std::vector<bool>& excluded);
 
 // Per-pixel, per-channel map of the metric's term (size of the crop, or of the whole image):
 //   Mse: (a-b)^2, RelMse: relMseTerm, RmsRelErr: rmsRelErrTerm (the squared relative residual, so

@@ -75,7 +75,7 @@ public:
                 if (!isBlack(c)) {
                     const Color weighted =
                         c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
-                    record(L, weighted, 0, t, pixel, false, stats);
+                    record(L, weighted, 0, t, pixel, false, false, stats);
                 }
             }
             // s = 1: next-event estimation (t segments).
@@ -89,7 +89,8 @@ public:
                     const Color weighted = conn.contribution * (strategy_ == Strategy::Mis
                                                                     ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer)
                                                                     : 1.f);
-                    record(L, weighted, 1, t, pixel, conn.pdfs.regularised, stats);
+                    record(L, weighted, 1, t, pixel, conn.pdfs.regularised, strategies_ && singularPath(&y, 1, z, t),
+                           stats);
                 }
             }
         }
@@ -101,10 +102,12 @@ private:
     static int maxDepthOf(const RenderSettings& s) {
         return s.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(s.maxDepth, kMaxPathVertices - 2);
     }
-    // A weighted contribution of technique (s, t), with whether its own technique was regularised.
-    void record(Color& L, const Color& c, int s, int t, uint32_t pixel, bool regularised, WalkStats& stats) const {
+    // A weighted contribution of technique (s, t), with whether its own technique was regularised
+    // and whether no unregularised technique could produce it (singularPath; with strategy images).
+    void record(Color& L, const Color& c, int s, int t, uint32_t pixel, bool regularised, bool singular,
+                WalkStats& stats) const {
         L += c;
-        if (strategies_) strategies_->add(false, s, t, pixel, c, regularised);
+        if (strategies_) strategies_->add(false, s, t, pixel, c, regularised, singular);
         if constexpr (Reg::kPerTechnique) stats.countContribution(c, regularised);
     }
 

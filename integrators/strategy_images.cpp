@@ -12,15 +12,16 @@ StrategyImages::StrategyImages(int width, int height, int maxLen) : w_(width), h
     merge_.resize(size_t(maxLen + 2));
 }
 
-void StrategyImages::add(bool isMerge, int s, int t, uint32_t pixel, const Color& c, bool regularised) {
+void StrategyImages::add(bool isMerge, int s, int t, uint32_t pixel, const Color& c, bool regularised, bool singular) {
     if (s > maxLen_ + 1 || t > maxLen_ + 1) return;
     auto& img = isMerge ? merge_[s] : conn_[size_t(s) * (maxLen_ + 2) + t];
     std::lock_guard<std::mutex> lock(m_);
     if (img.empty()) img.assign(size_t(w_) * h_, glm::dvec3(0.0));
     img[pixel] += glm::dvec3(c);
-    if (regularised) {
-        if (regularised_.empty()) regularised_.assign(size_t(w_) * h_, glm::dvec3(0.0));
-        regularised_[pixel] += glm::dvec3(c);
+    for (auto [on, part] : {std::pair{regularised, &regularised_}, std::pair{singular, &singular_}}) {
+        if (!on) continue;
+        if (part->empty()) part->assign(size_t(w_) * h_, glm::dvec3(0.0));
+        (*part)[pixel] += glm::dvec3(c);
     }
 }
 
@@ -37,6 +38,7 @@ void StrategyImages::write(const std::string& dir, uint64_t passes) const {
         save(merge_[s], fmt::format("merge_s{}.exr", s));
     }
     save(regularised_, "regularised.exr");
+    save(singular_, "singular.exr");
 }
 
 }  // namespace lt

@@ -81,7 +81,7 @@ public:
             film.mergeSplats(splats_[c]);
             if (strategies_)
                 for (const auto& sp : splats_[c].splats)
-                    strategies_->add(false, sp.strategyS, 1, sp.pixel, sp.value, sp.regularised);
+                    strategies_->add(false, sp.strategyS, 1, sp.pixel, sp.value, sp.regularised, sp.singular);
         }
         stats.rays += rays.load();
 
@@ -116,7 +116,8 @@ private:
             Connection c;
             if (!connect(scene, reg_, y, s, &camera, 1, c, ws)) continue;
             const Color weighted = c.contribution * connectionWeight(c.pdfs, s, 1);
-            film.splat(splat, c.raster, weighted, uint16_t(s), c.pdfs.regularised);
+            film.splat(splat, c.raster, weighted, uint16_t(s), c.pdfs.regularised,
+                       strategies_ && singularPath(y, s, &camera, 1));
             if constexpr (Reg::kPerTechnique) ws.countContribution(weighted, c.pdfs.regularised);
         }
     }
@@ -149,7 +150,7 @@ private:
             if (v.light && !(settings_.hideEmitters && t == 2) && (useConnections_ || (ppm_ && allDelta))) {
                 Color c = emitterHit(scene, reg_, z, t, pdfs);
                 if (!isBlack(c))
-                    record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel, false, stats);
+                    record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel, false, false, stats);
             }
             // Connections at the vertices the regulariser makes connectible (the same as merges
             // without one: not at infinity, not delta); merges at non-delta vertices only.
@@ -166,12 +167,12 @@ private:
                 if (t <= maxDepth_ && sampleLightVertex(scene, reg_, v.p, rng, lv) &&
                     connect(scene, reg_, &lv, 1, z, t, c, stats))
                     record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel, c.pdfs.regularised,
-                           stats);
+                           strategies_ && singularPath(&lv, 1, z, t), stats);
                 // s >= 2: the pixel's own light subpath.
                 for (int s = 2; s <= ny && s + t - 1 <= maxDepth_; ++s)
                     if (connect(scene, reg_, y, s, z, t, c, stats))
                         record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel,
-                               c.pdfs.regularised, stats);
+                               c.pdfs.regularised, strategies_ && singularPath(y, s, z, t), stats);
             }
             if (!canMerge) continue;  // (a delta vertex: allDelta is false from here on)
             if (useMerging_) {
@@ -190,7 +191,7 @@ private:
                     }
                     if (!merge(reg_, ph, ly, lp, z, t, c, cameraSums.data())) return;
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
-                    record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel, c.pdfs.regularised, stats);
+                    record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel, c.pdfs.regularised, false, stats);
                 });
                 if (ppm_) break;  // PPM merges at the first non-delta camera vertex only
             }
@@ -206,10 +207,12 @@ private:
         return s >= 2 ? w * settings_.testMisScale : w;
     }
 
-    void record(Color& L, const Color& c, bool isMerge, int s, int t, uint32_t pixel, bool regularised,
+    // A weighted contribution, with whether its own technique was regularised and whether no
+    // unregularised technique could produce it (singularPath; computed with strategy images only).
+    void record(Color& L, const Color& c, bool isMerge, int s, int t, uint32_t pixel, bool regularised, bool singular,
                 WalkStats& stats) const {
         L += c;
-        if (strategies_) strategies_->add(isMerge, s, t, pixel, c, regularised);
+        if (strategies_) strategies_->add(isMerge, s, t, pixel, c, regularised, singular);
         if constexpr (Reg::kPerTechnique) stats.countContribution(c, regularised);
     }
 

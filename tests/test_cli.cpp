@@ -126,7 +126,10 @@ TEST_CASE("render with --strategy-images writes per-technique images that sum to
     // VCM's connections with light tracing (t = 1), VCM's merges. Under JG19 also
     // regularised.exr, the part of the image whose own technique was regularised: on the glass
     // ball round a point light, PT's and BPT's light through the glass (JG19 regularises it and
-    // nothing else reaches it with PT; a positive share), never more than the image.
+    // nothing else reaches it with PT; a positive share), never more than the image; and
+    // singular.exr, the part no unregularised technique can produce (the point light seen through
+    // the glass, L S E and L S S E): positive there, never more than the regularised part (only a
+    // regularised connection reaches it), absent without a regulariser and with an area light.
     fs::path dir = tempDir("strategies");
     struct Case {
         std::string integ, scene, extra;
@@ -148,10 +151,21 @@ TEST_CASE("render with --strategy-images writes per-technique images that sum to
         lt::Image sum(img.width, img.height);
         int files = 0;
         bool sawMerge = false, sawLightTracing = false, sawEmitterHit = false, sawNee = false, sawRegularised = false;
-        double regularisedSum = 0.0;
+        double regularisedSum = 0.0, singularSum = 0.0;
+        lt::Image regularisedImg;
+        if (fs::exists(sdir / "regularised.exr")) regularisedImg = lt::readImage((sdir / "regularised.exr").string());
         for (const auto& e : fs::directory_iterator(sdir)) {
             lt::Image s = lt::readImage(e.path().string());
             const std::string name = e.path().filename().string();
+            if (name == "singular.exr") {
+                REQUIRE(regularisedImg.pixels.size() == s.pixels.size());
+                for (size_t i = 0; i < s.pixels.size(); ++i)
+                    for (int k = 0; k < 3; ++k) {
+                        singularSum += s.pixels[i][k];
+                        CHECK(s.pixels[i][k] <= regularisedImg.pixels[i][k] * (1.f + 1e-4f) + 1e-6f);
+                    }
+                continue;
+            }
             if (name == "regularised.exr") {
                 sawRegularised = true;
                 for (size_t i = 0; i < s.pixels.size(); ++i)
@@ -175,6 +189,8 @@ TEST_CASE("render with --strategy-images writes per-technique images that sum to
         if (c.scene == box) CHECK(sawEmitterHit);  // (the point light in the glass cannot be hit)
         CHECK(sawRegularised == reg);
         if (reg) CHECK(regularisedSum > 0.0);
+        CHECK((singularSum > 0.0) == reg);  // (on the box with the area light there is no regulariser)
+        CHECK(fs::exists(sdir / "singular.exr") == reg);
         for (size_t i = 0; i < img.pixels.size(); ++i)
             for (int k = 0; k < 3; ++k) CHECK(sum.pixels[i][k] == Approx(img.pixels[i][k]).epsilon(1e-4).margin(1e-6));
     }

@@ -920,3 +920,40 @@ TEST_CASE("JG19 diffusion heuristic: spreads along the camera walk and the bound
     REQUIRE(off.select(plainNee));
     CHECK(plainNee.bound[0] == 30.f);
 }
+
+TEST_CASE("singularPath: the paths no unregularised technique can produce", "[jg19][strategies]") {
+    // A delta light (point, spot, directional), the pinhole, and only smooth vertices between
+    // them: L S S E, for every split of the path into a connection (s, t). One rough or diffuse
+    // vertex, or a light that can be hit (an area light), and an unregularised technique has it.
+    Scene scene(mixedScene(16));
+    const reg::Jg19 jg = fixedTau(30.0, scene, MisConfig{TechniqueSet::Bidirectional});
+    const BxdfPtr glass = makeDielectric(1.5f), diffuse = makeDiffuse(Color(0.5f)),
+                  rough = makeRoughConductor(MicrofacetType::GGX, 0.2f, 0.2f, Color(0.2f), Color(3.f), Color(1.f));
+    auto light = [](LightType type) {
+        Light l;
+        l.type = type;
+        return l;
+    };
+    const Light point = light(LightType::Point), spot = light(LightType::Spot), sun = light(LightType::Directional),
+                area = light(LightType::Area);
+    auto path = [&](const Light& l, const Bxdf* middle) {
+        HandPath h;
+        h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &l);
+        h.add(VertexKind::Surface, Vec3(0, 0, 1), glass.get());
+        h.add(VertexKind::Surface, Vec3(0, 0, 2), middle);
+        h.add(VertexKind::Camera, Vec3(0, 0, 5), nullptr);
+        return h;
+    };
+    for (const Light* l : {&point, &spot, &sun, &area})
+        for (const Bxdf* middle : {glass.get(), diffuse.get(), rough.get()}) {
+            HandPath h = path(*l, middle);
+            const bool expected = l != &area && middle == glass.get();
+            INFO("light " << int(l->type) << (middle == glass.get() ? " S" : " rough or diffuse"));
+            for (int s = 1; s <= 3; ++s) {  // NEE at x_2, a connection at x_1 - x_2, light tracing from x_2
+                const Technique tech = h.technique(jg, s);
+                CHECK(singularPath(tech.y, tech.s, tech.z, tech.t) == expected);
+            }
+            const Technique hit = h.technique(jg, 0);  // (an emitter hit has no light subpath: never)
+            CHECK_FALSE(singularPath(hit.y, hit.s, hit.z, hit.t));
+        }
+}

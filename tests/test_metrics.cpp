@@ -155,6 +155,30 @@ TEST_CASE("RMS RE is symmetric and scale invariant, relMSE uses the reference", 
     CHECK(computeMetrics(a2, b2).rmsRelErr == Approx(kRmsRe).epsilon(1e-12));
 }
 
+TEST_CASE("An exclusion mask leaves pixels out of the metrics", "[metrics]") {
+    // 3x3, reference all 1; the image differs at (1,1) = 4 and (2,0) = 0.
+    Image ref(3, 3, Color(1.f)), img(3, 3, Color(1.f));
+    img.at(1, 1) = Color(4.f);
+    img.at(2, 0) = Color(0.f);
+    std::vector<bool> excluded(9, false);
+    CHECK(computeMetrics(img, ref, excluded).mse == Approx(10.0 / 9.0).epsilon(1e-14));  // none: as without
+    excluded[1 * 3 + 1] = true;  // the centre out: (1 over 8 pixels)
+    ErrorMetrics m = computeMetrics(img, ref, excluded);
+    CHECK(m.pixels == 8);
+    CHECK(m.mse == Approx(1.0 / 8.0).epsilon(1e-14));
+    CHECK(m.meanImage == Approx(7.0 / 8.0).epsilon(1e-14));
+    excluded[0 * 3 + 2] = true;  // and (2,0): no error left
+    CHECK(computeMetrics(img, ref, excluded).relMse == 0.0);
+    // Everything out: no pixels, zeros.
+    ErrorMetrics none = computeMetrics(img, ref, std::vector<bool>(9, true));
+    CHECK(none.pixels == 0);
+    CHECK(none.relMse == 0.0);
+    // A mask of the wrong size, or a NaN inside the image: errors.
+    CHECK_THROWS_AS(computeMetrics(img, ref, std::vector<bool>(8, false)), std::invalid_argument);
+    img.at(0, 2) = Color(std::numeric_limits<float>::quiet_NaN());
+    CHECK_THROWS_AS(computeMetrics(img, ref, std::vector<bool>(9, false)), std::invalid_argument);
+}
+
 TEST_CASE("Crop restricts the compared region", "[metrics]") {
     // 3x3, reference all 1; the image differs only at the centre (1,1) = 4 and at (2,0) = 0.
     Image ref(3, 3, Color(1.f)), img(3, 3, Color(1.f));

@@ -330,6 +330,22 @@ inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
 
 inline bool reg::None::connectible(const PathVertex& v) const { return v.connectible(); }
 
+// Whether the path of connection technique (s, t) (light subpath y[0..s-1], camera subpath
+// z[0..t-1]; t = 1: light tracing) is one no unregularised technique can produce: its light is a
+// delta in position or direction (nothing can hit it), the camera a pinhole (nothing can hit it
+// either), and every vertex between them is a smooth conductor or dielectric (nothing can
+// connect there). A point light seen through glass, L S S E, is one: it reaches the image only
+// through a regularised connection at a smooth vertex (--strategy-images: singular.exr).
+inline bool singularPath(const PathVertex* y, int s, const PathVertex* z, int t) {
+    if (s < 1 || t < 1 || !y[0].light || !y[0].light->isDelta()) return false;
+    auto smooth = [](const PathVertex& v) { return v.kind == VertexKind::Surface && !v.infinite && v.deltaBsdf; };
+    for (int i = 1; i < s; ++i)
+        if (!smooth(y[i])) return false;
+    for (int j = 1; j < t; ++j)
+        if (!smooth(z[j])) return false;
+    return true;
+}
+
 }  // namespace lt
 
 // The inline definitions of sampleLightVertex, connect, the gathers.
