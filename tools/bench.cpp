@@ -61,15 +61,14 @@ std::string machine(int threads) {
     );
 }
 
-}  // namespace
-
 // The pixels where paths no unregularised technique can produce (singularPath: a point light seen
 // through glass) carry more than 1% of the pixel's value in a 256 spp render, with strategy
-// images (singular.exr), of any regularised configuration (each technique regularises a vertex
-// of its own on such a path, so the blurred light lands in different pixels: VCM's light tracing
-// blurs a mirror near the camera, PT's next-event estimation the glass; 256 spp, as a sparse halo
-// of light-tracing splats is missed at fewer); empty where there are none. An unregularised reference lacks those paths: the bench reports the error outside them
-// beside the whole image's, for every configuration alike.
+// images (singular.exr), of any regularised configuration. Each technique regularises a vertex of
+// its own on such a path, so the blurred light lands in different pixels (VCM's light tracing
+// blurs a mirror near the camera, PT's next-event estimation the glass), and a sparse halo of
+// light-tracing splats is missed at fewer samples. Empty where there are none. An unregularised
+// reference lacks those paths: the bench reports the error outside them beside the whole image's,
+// for every configuration alike.
 std::vector<bool> singularMask(const Scene& scene, const SceneDesc& desc, const std::vector<RunConfig>& configs,
                                int threads, const fs::path& dir) {
     std::vector<bool> mask;
@@ -92,6 +91,8 @@ std::vector<bool> singularMask(const Scene& scene, const SceneDesc& desc, const 
     if (std::find(mask.begin(), mask.end(), true) == mask.end()) return {};
     return mask;
 }
+
+}  // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{"bench: every available integrator at equal time on the hard-case suite and the Cornell boxes"};
@@ -263,8 +264,9 @@ int main(int argc, char** argv) {
     if (!regularizers.empty()) {
         body += "\n## Regularisation at equal time\n\nError with the regulariser over the same integrator's without it, "
                 "same time and reference (below 1: the regulariser wins; its bias is part of its error). relMSE ratio / "
-                "RMS-RE ratio, and where a scene has singular pixels (above) [the relMSE ratio outside them]. Each figure is one timed run: where the machine is shared, the spp of a configuration "
-                "varies between runs (see the tables), and so does its relMSE, about in inverse proportion.\n\n| scene |";
+                "RMS-RE ratio, and where a scene has singular pixels (above) [the relMSE ratio outside them]. Each "
+                "figure is one timed run: where the machine is shared, the spp of a configuration varies between runs "
+                "(see the tables), and so does its relMSE, about in inverse proportion.\n\n| scene |";
         std::string rule = "|---|";
         for (const std::string& r : regularizers)
             for (const char* integ : {"pt", "bpt", "vcm"}) {
