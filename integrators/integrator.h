@@ -1,5 +1,6 @@
 // Integrators and the render loop shared by them.
 #pragma once
+#include <algorithm>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -61,6 +62,11 @@ double regTauDefault(const std::string& integrator);
 // last vertex; with the roulette from the first bounce it needed 2-20% more rays for the same
 // error on SmallVCM's five boxes, docs/smallvcm-comparison.md).
 int rrDepthOf(const RenderSettings& s);
+// The longest subpath in surface vertices after its endpoint: max_depth (unset: as many as a
+// path record holds).
+inline int maxDepthOf(const RenderSettings& s) {
+    return s.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(s.maxDepth, kMaxPathVertices - 2);
+}
 
 struct RenderStats {
     uint64_t spp = 0;

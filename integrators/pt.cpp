@@ -37,6 +37,7 @@ public:
 
     void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
                     WalkStats& stats) const override {
+        // Camera subpath: the camera plus at most max_depth surface vertices.
         const int maxDepth = maxDepthOf(settings_);
         // Work records made once per tile (not per sample): the walk's vertices and the emitter hits'
         // pdfs (written before they are read).
@@ -98,10 +99,6 @@ public:
     }
 
 private:
-    // Camera subpath: the camera plus at most max_depth surface vertices.
-    static int maxDepthOf(const RenderSettings& s) {
-        return s.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(s.maxDepth, kMaxPathVertices - 2);
-    }
     // A weighted contribution of technique (s, t), with whether its own technique was regularised
     // and whether no unregularised technique could produce it (singularPath; with strategy images).
     void record(Color& L, const Color& c, int s, int t, uint32_t pixel, bool regularised, bool singular,

@@ -34,7 +34,7 @@ public:
         cfg_.merging = m == "vcm";
         if (!(s.radiusAlpha > 0.f && s.radiusAlpha <= 1.f))
             throw std::invalid_argument(fmt::format("radius alpha must be in (0, 1], got {}", s.radiusAlpha));
-        maxDepth_ = s.maxDepth < 0 ? kMaxPathVertices - 2 : std::min(s.maxDepth, kMaxPathVertices - 2);
+        maxDepth_ = maxDepthOf(s);
     }
     std::string name() const override { return settings_.integrator; }
     double regularisationTau() const override { return regularisationTauOf(reg_); }
