@@ -25,7 +25,7 @@ void Jg19::setIteration(uint64_t n) {
 void Jg19::setLimits() {
     loosest_ = radiance_;
     const double tau = double(radiance_.reg.tau);
-    tauSqExit_ = float(tau * tau * (1.0 - 1e-4));
+    tauSqExit_ = float(tau * tau * (1.0 - kExitMargin));
     if (diffusion()) loosest_.reg.tau = float(double(radiance_.reg.tau) / Diffusion::kMaxSpread);  // (4)
 }
 
@@ -45,7 +45,6 @@ void Jg19::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) 
     set_ = cfg.set;
     merging_ = cfg.merging;
     mergeDensity_ = double(cfg.mergeArea) * double(cfg.lightPaths);
-    mergeDensityF_ = float(mergeDensity_);
 }
 
 float Jg19::lightBound(const Light& light) {
@@ -195,8 +194,8 @@ bool Jg19::select(Technique& tech, bool shortcut) const {
     // The common case without the loops below: a connection term already under tau^2, so q is
     // (Eq. 18). Known in O(1): the joining segment's term, an emitter hit's first segment, and,
     // where every connection is a technique (BPT, VCM), d_path^2 times the subpaths' running
-    // minima (SubpathState::connectionMin, stored in float: the margin 1e-4 keeps this exit to
-    // paths whose q from the loop, in double, is under tau^2 too, so the choice is the loop's).
+    // minima (SubpathState::connectionMin, stored in float: the margin kExitMargin keeps this exit
+    // to paths whose q from the loop, in double, is under tau^2 too, so the choice is the loop's).
     if (shortcut) {
         double known = kInf;
         if (join >= 0 && allowsTechnique(set_, join + 1, n - join - 1))
@@ -204,29 +203,31 @@ bool Jg19::select(Technique& tech, bool shortcut) const {
         if (tech.s == 0 && n >= 2 && allowsTechnique(set_, 1, n - 1))
             known = std::min(known, connectionTerm(lightBound(*tech.z[tech.t - 1].light),
                                                    tech.z[tech.t - 2].regState.rhoBar, segmentAt(0)));
-        if (set_ == TechniqueSet::Bidirectional) {
+        // A running minimum over both subpaths: the light subpath's last vertex and the camera
+        // subpath's (an emitter hit's x_0 is not a connection or merge end: its camera walk's
+        // vertex before it).
+        const int lastCamera = tech.s == 0 ? tech.t - 2 : tech.t - 1;
+        auto subpathsMin = [&](float SubpathState::*field) {
             double m = kInf;
-            if (path.lightCount >= 1) m = tech.y[path.lightCount - 1].regState.connectionMin;
-            const int lastCamera = tech.s == 0 ? tech.t - 2 : tech.t - 1;  // (x_0 of an emitter hit: above)
-            if (lastCamera >= 0) m = std::min(m, double(tech.z[lastCamera].regState.connectionMin));
+            if (path.lightCount >= 1) m = tech.y[path.lightCount - 1].regState.*field;
+            if (lastCamera >= 0) m = std::min(m, double(tech.z[lastCamera].regState.*field));
+            return m;
+        };
+        if (set_ == TechniqueSet::Bidirectional) {
+            const double m = subpathsMin(&SubpathState::connectionMin);
             if (m == 0.0) known = 0.0;
             else if (dPath > 0.0) known = std::min(known, m * sqr(dPath));
         }
         // The merges' terms (the merge at x_i: rho_bar_i d_path^2 / (N pi r^2), x_i inner and
         // connectible: on the light subpath after x_0, on the camera subpath before an emitter).
-        if (merging_ && mergeDensity_ > 0.0) {
-            double m = kInf;
-            if (path.lightCount >= 1) m = tech.y[path.lightCount - 1].regState.mergeMin;
-            const int lastCamera = tech.s == 0 ? tech.t - 2 : tech.t - 1;
-            if (lastCamera >= 0) m = std::min(m, double(tech.z[lastCamera].regState.mergeMin));
-            known = std::min(known, m * (sqr(dPath) / mergeDensity_));
-        }
+        if (merging_ && mergeDensity_ > 0.0)
+            known = std::min(known, subpathsMin(&SubpathState::mergeMin) * (sqr(dPath) / mergeDensity_));
         // The emitter hit's term where x_1 is not a delta (nothing to unfold).
         if (allowsTechnique(set_, 0, n) && n >= 2) {
             const double rho1 = path.vertex(1).regState.rhoBar;
             if (std::isfinite(rho1)) known = std::min(known, emitterHitTerm(path.vertex(0), path.vertex(1), rho1, segmentAt(0)));
         }
-        if (known < tau * tau * (1.0 - 1e-4)) return unregularised();
+        if (known < tau * tau * (1.0 - kExitMargin)) return unregularised();
     }
 
     // The path's vertices, segment lengths d_j and bounds, gathered once (the loops below read

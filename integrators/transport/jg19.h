@@ -55,8 +55,8 @@
 //     rho_hat / rho of a vertex is the same pair of directions in every technique that connects
 //     there (its two path neighbours), so it is computed once per vertex: by the walk when it
 //     extends past the vertex (SubpathState::ratio), by connect and merge at their own ends
-//     (Technique::ratioLight, ratioCamera). The ratio is exact (both BSDFs evaluated), which is what the paper's
-//     evaluation of the pdf with alpha_hat plus the Smith G ratio approximates.
+//     (Technique::ratioLight, ratioCamera). The ratio is exact (both BSDFs evaluated), which is
+//     what the paper's evaluation of the pdf with alpha_hat plus the Smith G ratio approximates.
 //     Singular vertices: where rho is a delta (or 0) the ratio is +inf. A path that a technique
 //     sampled through the delta is exactly specular there, and a technique regularising that
 //     vertex has a finite value where the sampled one has a delta: its weight is 0. A path that a
@@ -245,9 +245,9 @@ private:
     // technique of the running integrator, so its own segment's term is one of Eq. 17's), in
     // float: the joining segment's term rho_bar_a rho_bar_b (d_path / d)^2, or (BPT, VCM) d_path^2
     // times the subpaths' running minima (VCM: their merge terms too), is under tau^2 with the
-    // margin of the out-of-line exit
-    // (1e-4, far above float's rounding here), so the loop's q in double is under tau^2 too.
-    // False where a term cannot be formed in float (d = 0, overflow): the out-of-line form decides.
+    // margin of the out-of-line exit (kExitMargin, far above float's rounding here), so the
+    // loop's q in double is under tau^2 too. False where a term cannot be formed in float (d = 0,
+    // overflow): the out-of-line form decides.
     bool connectionUnder(const PathVertex& a, const PathVertex& b) const {
         if (a.infinite || b.infinite) return false;
         const Vec3 ab = a.p - b.p;
@@ -259,7 +259,8 @@ private:
         if (set_ == TechniqueSet::Bidirectional &&
             std::min(a.regState.connectionMin, b.regState.connectionMin) * dPath2 < tauSqExit_)
             return true;
-        return merging_ && std::min(a.regState.mergeMin, b.regState.mergeMin) * dPath2 < tauSqExit_ * mergeDensityF_;
+        return merging_ &&
+               std::min(a.regState.mergeMin, b.regState.mergeMin) * dPath2 < tauSqExit_ * float(mergeDensity_);
     }
     void setLimits();  // loosest_ from tau_n
     // tau' = tau_n / sigma (Eq. 19).
@@ -269,13 +270,15 @@ private:
     BsdfContext radiance_{TransportMode::Radiance}, importance_{TransportMode::Importance};
     // The smallest bound a vertex gets: tau_n, or tau_n / kMaxSpread with diffusion ((4), connectible).
     BsdfContext loosest_{TransportMode::Radiance};
-    float tauSqExit_ = 0.f;  // tau_n^2 (1 - 1e-4), connectionUnder's threshold (setLimits)
+    // The O(1) exits answer "q < tau^2" only below tau^2 (1 - kExitMargin): the running minima
+    // are stored in float, the loop computes q in double.
+    static constexpr double kExitMargin = 1e-4;
+    float tauSqExit_ = 0.f;  // tau_n^2 (1 - kExitMargin), connectionUnder's threshold (setLimits)
     // The quality heuristic's view of the running integrator (beginIteration).
     float cameraBound_ = 1.f;
     TechniqueSet set_ = TechniqueSet::Bidirectional;
     bool merging_ = false;
     double mergeDensity_ = 0.0;  // N pi r^2
-    float mergeDensityF_ = 0.f;   // (for connectionUnder, in float)
 };
 
 }  // namespace lt::reg
