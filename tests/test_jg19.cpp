@@ -986,32 +986,25 @@ TEST_CASE("JG19's light through the glass converges to the point's Fresnel-atten
     SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml", {{"res", "64"}});
     Scene scene(desc);
     const std::filesystem::path dir = lt::test::tempDir("lt_jg19", "singular");
+    // The mean of one strategy image (`file`) of a 64^2 render with settings s, into dir/name.
+    auto strategyMean = [&](const Scene& sc, RenderSettings s, const std::string& name, const std::string& file) {
+        s.strategyImages = (dir / name).string();
+        RenderStats st;
+        renderImage(sc, s, st);
+        return cropMean(readImage((dir / name / file).string()), 64, 0, 0, 64, 64);
+    };
     auto singularMean = [&](int spp) {
         RenderSettings s = settingsFor("pt", spp);
         s.maxDepth = 8;
         s.regularizer = "jg19";
-        s.strategyImages = (dir / std::to_string(spp)).string();
-        RenderStats st;
-        renderImage(scene, s, st);
-        const Image img = readImage((dir / std::to_string(spp) / "singular.exr").string());
-        double sum = 0.0;
-        for (const Color& c : img.pixels) sum += (double(c.x) + c.y + c.z) / 3.0;
-        return sum / double(img.pixels.size());
+        return strategyMean(scene, s, std::to_string(spp), "singular.exr");
     };
     // The direct image's formula, checked: PT sees a small spherical light of intensity I at the
     // point's place (its s0_t2.exr, the camera ray hitting it); 256 spp, 4.5 pixels covered, about
     // 1.5% noise on the mean: within 5%.
     {
         SceneDesc d = loadScene(std::string(LT_SOURCE_DIR) + "/tests/data/singular/direct-light.xml", {{"res", "64"}});
-        Scene lightScene(d);
-        RenderSettings s = settingsFor("pt", 256);
-        s.strategyImages = (dir / "direct").string();
-        RenderStats st;
-        renderImage(lightScene, s, st);
-        const Image img = readImage((dir / "direct" / "s0_t2.exr").string());
-        double sum = 0.0;
-        for (const Color& c : img.pixels) sum += (double(c.x) + c.y + c.z) / 3.0;
-        const double measured = sum / double(img.pixels.size());
+        const double measured = strategyMean(Scene(d), settingsFor("pt", 256), "direct", "s0_t2.exr");
         INFO("direct image of the light: measured " << measured << ", I / (d^2 A) = " << direct);
         CHECK(std::abs(measured / direct - 1.0) < 0.05);
     }
