@@ -2,9 +2,9 @@
 // available integrator, and PT, BPT and VCM with each regulariser, at equal time and writes
 // BENCHMARKS.md: per scene and configuration the render time, spp, samples/s, relMSE, RMS-RE,
 // MAPE, the top-1% share (of the relMSE, carried by the worst 1% of pixels), the bias of the image
-// mean and the regularised share of contributions against a reference; a summary of each
-// regulariser's error over the same integrator's without it; and the machine (nproc, CPU model,
-// memory). References
+// mean, the regularised share of contributions and the relMSE outside the pixels only a
+// regulariser renders (singularMask) against a reference; a summary of each regulariser's error
+// over the same integrator's without it; and the machine (nproc, CPU model, memory). References
 // are rendered once by the `reference` tool (next to this binary) and cached under out/bench/refs/
 // (re-rendered when the scene or the settings change).
 // Run from the repository root (or give --root). See docs/tools.md.
