@@ -85,8 +85,10 @@ public:
         }
         stats.rays += rays.load();
 
-        // (2) Photon grid: light vertices after at least one segment that a merge can use.
-        if (useMerging_) grid_.build(store_, radius_, cfg_);
+        // (2) Photon grid: light vertices after at least one segment that a merge can use (PPM:
+        // non-delta ones, whatever the regulariser; see radiance()).
+        if (useMerging_ && ppm_) grid_.build(store_, radius_, cfg_);
+        else if (useMerging_) grid_.build(store_, radius_, cfg_, reg_);
     }
 
     void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
@@ -152,10 +154,12 @@ private:
                 if (!isBlack(c))
                     record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel, false, false, stats);
             }
-            // Connections at the vertices the regulariser makes connectible (the same as merges
-            // without one: not at infinity, not delta); merges at non-delta vertices only.
-            const bool canMerge = !v.infinite && v.connectible();
-            const bool canConnect = !v.infinite && reg_.connectible(v);  // (includes every vertex canMerge does)
+            // Connections and merges at the vertices the regulariser makes connectible (without
+            // one: not at infinity, not delta; JG19 adds the smooth vertices its request makes
+            // rough). PPM, which has no MIS to share a path between techniques, merges at
+            // non-delta vertices only, the first one of the camera walk.
+            const bool canConnect = !v.infinite && reg_.connectible(v);
+            const bool canMerge = ppm_ ? !v.infinite && v.connectible() : canConnect;
             if (!canConnect) {
                 allDelta = allDelta && v.delta;
                 continue;
@@ -174,7 +178,7 @@ private:
                         record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel,
                                c.pdfs.regularised, strategies_ && singularPath(y, s, z, t), stats);
             }
-            if (!canMerge) continue;  // (a delta vertex: allDelta is false from here on)
+            if (!canMerge) continue;  // (PPM at a smooth vertex a regulariser made connectible: still delta)
             if (useMerging_) {
                 Connection c;
                 grid_.scan(v.p, cells[t - 1], [&](const Photon& ph) {
@@ -191,7 +195,11 @@ private:
                     }
                     if (!merge(reg_, ph, ly, lp, z, t, c, cameraSums.data())) return;
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
-                    record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel, c.pdfs.regularised, false, stats);
+                    // (singular: the light's delta position, smooth vertices up to y[i-1] and from
+                    // the merge vertex z[t-1] to the camera)
+                    record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel, c.pdfs.regularised,
+                           strategies_ && singularPath(store_.vertices().data() + (ph.vertex - ph.depth), i, z, t),
+                           stats);
                 });
                 if (ppm_) break;  // PPM merges at the first non-delta camera vertex only
             }

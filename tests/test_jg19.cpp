@@ -209,7 +209,7 @@ struct BruteForce {
         }
         if (cfg.merging)
             for (int i = 1; i <= N - 2; ++i) {
-                if (smooth[i]) continue;  // photons lie on non-delta surfaces
+                if (!jg.connectible(*x[i])) continue;  // photons lie where connections may end
                 const double c = coefficient({i});
                 if (c < 0.0) continue;
                 const double term = ratio(i, base) * mergeDensity(i) * c;
@@ -242,7 +242,7 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
         const PathVertex cam = cameraEndpoint(scene, jg);
         for (bool merging : {false, true}) {
             const MisConfig cfg{TechniqueSet::Bidirectional, merging, kPi * 0.02f * 0.02f, 256.f};
-            int checked = 0, regularisedPaths = 0, twoEnds = 0, smoothEnds = 0, merges = 0;
+            int checked = 0, regularisedPaths = 0, twoEnds = 0, smoothEnds = 0, merges = 0, smoothMerges = 0;
             double worst = 0.0;
             LightPathStore store;
             for (uint64_t i = 0; i < 1200; ++i) {
@@ -276,7 +276,7 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
                 if (!merging) continue;
                 // Merges of this camera path with the light vertices of the same light walk.
                 for (int m = 1; m < ny; ++m) {
-                    if (!y[m].connectible() || y[m].kind != VertexKind::Surface) continue;
+                    if (!jg.connectible(y[m]) || y[m].kind != VertexKind::Surface) continue;
                     std::vector<VertexPdfs> lp;
                     for (int k = 0; k <= m; ++k) lp.push_back(VertexPdfs::of(y[k]));
                     Photon ph;
@@ -289,18 +289,21 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
                         for (int k = t - 1; k >= 0; --k) xs.push_back(&z[k]);
                         check(c.pdfs, xs, -1, m, &y[m]);
                         ++merges;
+                        smoothMerges += z[t - 1].deltaBsdf;
                     }
                 }
             }
             INFO("regularised MIS " << regularisedMis << " merging " << merging << ": " << checked << " weights, "
                                     << regularisedPaths << " on regularised paths, " << twoEnds
                                     << " with two glossy or smooth ends, " << smoothEnds
-                                    << " with a smooth end made rough, " << merges << " merges; worst " << worst);
+                                    << " with a smooth end made rough, " << merges << " merges (" << smoothMerges
+                                    << " on smooth surfaces made rough); worst " << worst);
             CHECK(checked > 3000);
             CHECK(regularisedPaths > 800);
             CHECK(twoEnds > 20);
             CHECK(smoothEnds > 200);
             if (merging) CHECK(merges > 200);
+            if (merging) CHECK(smoothMerges > 50);
         }
     }
 }
@@ -532,6 +535,40 @@ TEST_CASE("JG19 quality heuristic: q (Eq. 17) and the regularised vertex equal h
         CHECK(nee.regularised[0] == 1);
         CHECK(nee.regularised[1] == -1);
     }
+    SECTION("point light seen through glass, L S S E: VCM merges at a smooth vertex made rough") {
+        HandPath h;
+        h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &point);
+        h.add(VertexKind::Surface, Vec3(0, 0, 0.01f), glass.get());
+        h.add(VertexKind::Surface, Vec3(0, 0, 3), glass.get());
+        h.add(VertexKind::Camera, Vec3(0, 0, 3.01f), nullptr);
+        // Every plain term is infinite (both glass vertices are deltas): q = inf, something is
+        // regularised. Bounded terms (d_path = 3.01, glass bounds ~tau = 30): NEE (1 / 4 pi) tau
+        // (3.01 / 0.01)^2 ~ 2e5, light tracing c tau 301^2 ~ 5e6, S-S tau^2 (3.01 / 2.99)^2 ~ 912,
+        // the merges at either glass vertex tau 3.01^2 / (N pi r^2) ~ 27 with N pi r^2 = 10. The
+        // merge at x_1 (first of the tie) wins: only x_1 is regularised. Without merging, S-S
+        // regularises both.
+        const MisConfig vcm{TechniqueSet::Bidirectional, true, 10.f / 256.f, 256.f};
+        const reg::Jg19 jg = fixedTau(30.0, scene, vcm);
+        const Photon photon{};
+        Technique m = h.technique(jg, 1);  // z = E, S (x_2), S (x_1): the merge at x_1
+        m.s = 2;
+        m.photon = &photon;
+        CHECK(selectBoth(jg, m));
+        CHECK(m.regularised[0] == 1);
+        CHECK(m.regularised[1] == -1);
+        Technique nee = h.technique(jg, 1), ss = h.technique(jg, 2), lt = h.technique(jg, 3);
+        CHECK(selectBoth(jg, nee));  // its ends contain x_1
+        CHECK(nee.regularised[0] == 1);
+        CHECK(selectBoth(jg, ss));
+        CHECK(!selectBoth(jg, lt));  // light tracing walks through x_1
+        const reg::Jg19 jgBpt = fixedTau(30.0, scene, bpt);
+        Technique ssBpt = h.technique(jgBpt, 2);
+        CHECK(selectBoth(jgBpt, ssBpt));
+        CHECK(ssBpt.regularised[0] == 1);
+        CHECK(ssBpt.regularised[1] == 2);
+        Technique neeBpt = h.technique(jgBpt, 1);
+        CHECK(!selectBoth(jgBpt, neeBpt));  // x_2 is regularised, NEE walks through it
+    }
     SECTION("glossy vertex lit by a small area light, L G E: NEE, light tracing and the emitter hit") {
         HandPath h;
         h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &area, Vec3(0, 0, 1));
@@ -666,14 +703,19 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
     // the spread along the path from the camera) is also the same in every split, up to float
     // rounding of the walks' stored spreads (relative 1e-4).
     const bool diffusion = GENERATE(false, true);
-    INFO("diffusion " << diffusion);
+    // BPT, and VCM: merges compete in every weight, and the merges of each camera vertex with the
+    // light walk's vertices are weighted too, smooth surfaces made rough included (merge radius
+    // 0.05, 256 light paths: terms of the order of the connections', so merges are chosen on
+    // some paths, a smooth vertex's on the L S ... S E paths of the point light).
+    const bool merging = GENERATE(false, true);
+    INFO("diffusion " << diffusion << " merging " << merging);
     Scene scene(desc);
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> y, z;
-    const MisConfig cfg{TechniqueSet::Bidirectional};
+    const MisConfig cfg{TechniqueSet::Bidirectional, merging, kPi * 0.05f * 0.05f, 256.f};
     const reg::Jg19 jg = fixedTau(30.0, scene, cfg, diffusion);
     const PathVertex cam = cameraEndpoint(scene, jg);
-    int checked = 0, regularisedPaths = 0, splits = 0;
+    int checked = 0, regularisedPaths = 0, splits = 0, merges = 0, smoothMerges = 0;
     double worst = 0.0;
     for (uint64_t i = 0; i < 1500; ++i) {
         Rng rng(i, 57);
@@ -721,10 +763,40 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                 worst = std::max(worst, std::abs(ours - ref));
                 ++checked;
             });
+        if (!merging) continue;
+        for (int m = 1; m < ny; ++m) {  // the merges of y[m] at each camera vertex
+            if (!jg.connectible(y[m]) || y[m].kind != VertexKind::Surface) continue;
+            std::vector<VertexPdfs> lp;
+            for (int k = 0; k <= m; ++k) lp.push_back(VertexPdfs::of(y[k]));
+            Photon ph;
+            ph.set(0, y[m], y[m - 1], y[0].light->isHittable(), 0.0);
+            for (int t = 2; t <= nz; ++t) {
+                Connection c;
+                if (!merge(jg, ph, y.data(), lp.data(), z.data(), t, c)) continue;
+                Technique own{y.data(), m + 1, z.data(), t, &ph};
+                REQUIRE(jg.select(own));
+                std::vector<int> R;
+                for (int j : own.regularised)
+                    if (j >= 0) R.push_back(j);
+                std::vector<const PathVertex*> xs;
+                for (int k = 0; k < m; ++k) xs.push_back(&y[k]);
+                for (int k = t - 1; k >= 0; --k) xs.push_back(&z[k]);
+                BruteForce bf{jg, std::move(xs), c.pdfs, cfg, false, m, &y[m], true, R};
+                const double ours = misWeightMerge(c.pdfs, m, cfg), ref = bf.weight(-1);
+                INFO("path " << i << " merge at " << m << " t=" << t << " ours " << ours << " brute force " << ref);
+                CHECK(std::abs(ours - ref) <= 2e-3);
+                worst = std::max(worst, std::abs(ours - ref));
+                ++merges;
+                smoothMerges += z[t - 1].deltaBsdf && ours > 0.0;
+            }
+        }
     }
-    INFO(checked << " weights, " << regularisedPaths << " on regularised paths, " << splits << " splits; worst " << worst);
+    INFO(checked << " weights, " << regularisedPaths << " on regularised paths, " << splits << " splits, " << merges
+                 << " merges (" << smoothMerges << " on smooth surfaces made rough, with weight); worst " << worst);
     CHECK(checked > 3000);
     CHECK(regularisedPaths > 100);
+    if (merging) CHECK(merges > 200);
+    if (merging) CHECK(smoothMerges > 20);
 }
 
 TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as the loop over the path", "[jg19][quality]") {
@@ -784,7 +856,7 @@ TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as 
             else if (std::isfinite(d) && d > 0.0) m = std::min(m, a * b / (d * d));
             if (std::isinf(m)) CHECK(std::isinf(w[k].regState.connectionMin));
             else CHECK(w[k].regState.connectionMin == Approx(m).epsilon(1e-6));
-            if (w[k].connectible()) merge = std::min(merge, w[k].regState.rhoBar);
+            if (jg.connectible(w[k])) merge = std::min(merge, w[k].regState.rhoBar);
             CHECK(w[k].regState.mergeMin == merge);
         }
     };
@@ -801,9 +873,9 @@ TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as 
             if (!jg.connectible(zt) || zt.infinite) continue;
             for (int s = 1; s <= ny; ++s)
                 if (allowsTechnique(cfg.set, s, t) && jg.connectible(y[s - 1])) compare(Technique{y.data(), s, z.data(), t});
-            if (!cfg.merging || t < 2 || !zt.connectible()) continue;
-            for (int m = 1; m < ny; ++m)  // the merge of y[m] at z[t-1]
-                if (y[m].kind == VertexKind::Surface && y[m].connectible())
+            if (!cfg.merging || t < 2) continue;
+            for (int m = 1; m < ny; ++m)  // the merge of y[m] at z[t-1] (smooth surfaces made rough too)
+                if (y[m].kind == VertexKind::Surface && jg.connectible(y[m]))
                     compare(Technique{y.data(), m + 1, z.data(), t, &photon});
         }
     }

@@ -287,8 +287,8 @@ bool Jg19::select(Technique& tech, bool shortcut) const {
     }
     if (merging_ && mergeDensity_ > 0.0) {
         const double scale = sqr(dPath) / mergeDensity_;
-        for (int i = 1; i + 1 < n; ++i) {  // the merge at x_i (photons lie on non-delta surfaces)
-            if (!xs[i]->connectible()) continue;
+        for (int i = 1; i + 1 < n; ++i) {  // the merge at x_i (photons lie where connections may end)
+            if (!connectible(*xs[i])) continue;
             consider(bound(i, false) * scale, bound(i, true) * scale, 0.0, i, -1);
         }
     }
@@ -326,7 +326,7 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
         P.connectionScale[n] = 0.f;
         for (int i = 0; i < n; ++i)
             P.mergeScale[i] =
-                path.inner(i) && path.vertex(i).connectible() && containsRegularised(tech, i, -1) ? 1.f : 0.f;
+                path.inner(i) && connectible(path.vertex(i)) && containsRegularised(tech, i, -1) ? 1.f : 0.f;
         P.regularised = true;  // (select let only techniques containing them through)
         return;
     }
@@ -365,9 +365,10 @@ void Jg19::densities(const Technique& tech, PathPdfs& P) const {
     P.connectionScale[0] = factor(-1, -1);
     for (int k = 1; k < n; ++k) P.connectionScale[k] = factor(k - 1, k);
     P.connectionScale[n] = 0.f;  // (the pinhole: never valid)
-    // Merges where the photon grid stores photons and merge() gathers them: connectible vertices.
+    // Merges where the photon grid stores photons and merge() gathers them: connectible vertices
+    // (the smooth ones too, as connections: their factor decides).
     for (int i = 0; i < n; ++i)
-        P.mergeScale[i] = path.inner(i) && path.vertex(i).connectible() ? factor(i, -1) : 0.f;
+        P.mergeScale[i] = path.inner(i) && connectible(path.vertex(i)) ? factor(i, -1) : 0.f;
     P.regularised = (path.lightEnd >= 0 && tech.ratioLight != 1.f) || (path.cameraEnd >= 0 && tech.ratioCamera != 1.f);
 }
 

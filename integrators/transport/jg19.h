@@ -6,7 +6,9 @@
 //     microfacet lobe is evaluated with alpha' = max(alpha, alpha_hat(tau_n)) per axis,
 //     alpha_hat = rho_bar^-1 (Eqs. 1, 8-9; bsdf/roughness_bound.h), resolved by the lobe with its
 //     own distribution, masking and eta (MicrofacetLobe::resolve). Smooth conductors and
-//     dielectrics become rough GGX lobes there, so a connection may end on them (connectible).
+//     dielectrics become rough GGX lobes there, so a connection may end on them (connectible),
+//     and a merge too (VCM: the photon grid stores the light vertices on them, and the camera
+//     vertex on one gathers; JG19 Fig. 2 right, Eq. 3).
 //     The walks sample and evaluate the materials' own BSDFs (Sec. 3). tau_n: Eq. 16 with n the
 //     iteration (consistent schedule) or tau_0 throughout (fixed).
 // (2) Which vertices, per path (Sec. 3.5.1, Eqs. 17-18: the sampler quality heuristic, on by
@@ -88,7 +90,6 @@
 //     light walk, which does not know the camera side, those the smallest tau' can change: the
 //     spread is capped at Diffusion::kMaxSpread = 100 rad (ours; a spread of radians is all
 //     directions already), so tau' >= tau / 100 (also what connectible() uses).
-// Not yet here (issue 13): merges on delta surfaces (photons are stored on non-delta surfaces only).
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -187,7 +188,7 @@ public:
             surfaceBounds(v, st.rhoBar, st.rhoBarReg);
             st.connectionMin = std::min(prev.regState.connectionMin,
                                         segmentTerm(prev.regState.rhoBar, st.rhoBar, v.segmentLength));
-            st.mergeMin = v.connectible() ? std::min(prev.regState.mergeMin, st.rhoBar) : prev.regState.mergeMin;
+            st.mergeMin = connectible(v) ? std::min(prev.regState.mergeMin, st.rhoBar) : prev.regState.mergeMin;
             if (!diffusion()) {
                 st.changeable = prev.regState.changeable + (st.rhoBarReg < st.rhoBar ? 1.f : 0.f);
                 return;

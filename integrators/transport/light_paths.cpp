@@ -1,4 +1,5 @@
 #include "integrators/transport/light_paths.h"
+#include "integrators/transport/jg19.h"
 #include <tbb/parallel_for.h>
 
 namespace lt {
@@ -28,7 +29,8 @@ void LightPathStore::assign(std::span<const Chunk> chunks) {
     });
 }
 
-void HashGrid::build(const LightPathStore& store, float radius, const MisConfig& cfg) {
+template <class Reg>
+void HashGrid::build(const LightPathStore& store, float radius, const MisConfig& cfg, const Reg& reg) {
     radius_ = radius;
     cellStarts_.clear();
     photons_.resize(0);
@@ -54,7 +56,7 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
             const double prevPrefix = prefix;
             prefix = lightPrefixSum(pdfs.data() + (k - y.depth), y.depth, hittable, cfg, y.depth > 0 ? prefix : 0.0);
             if (k < r.begin()) continue;
-            if (y.depth < 1 || y.kind != VertexKind::Surface || !y.connectible()) {
+            if (y.depth < 1 || y.kind != VertexKind::Surface || !reg.connectible(y)) {
                 cellOf_[k] = UINT32_MAX;
                 continue;
             }
@@ -83,5 +85,8 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
         positions_[dst] = glm::vec4(v[k].p, 0.f);
     }
 }
+
+template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::None&);
+template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Jg19&);
 
 }  // namespace lt

@@ -83,9 +83,13 @@ struct Photon {
 // (deterministic), queried concurrently.
 class HashGrid {
 public:
-    // Inserts the light vertices a merge can use: after at least one segment, on a surface,
-    // not sampled through a delta lobe.
-    void build(const LightPathStore& store, float radius, const MisConfig& cfg);
+    // Inserts the light vertices a merge can use: after at least one segment, on a surface, where
+    // the regulariser lets a connection or merge end (reg.connectible: without one, not a delta
+    // vertex; under JG19 also the smooth ones its request makes rough). Instantiated for the
+    // renderer's policies in light_paths.cpp.
+    template <class Reg>
+    void build(const LightPathStore& store, float radius, const MisConfig& cfg, const Reg& reg);
+    void build(const LightPathStore& store, float radius, const MisConfig& cfg) { build(store, radius, cfg, reg::kNone); }
     // A query in three stages, so that a caller can issue the memory loads of a query early and
     // do other work (connections) while they arrive: the query is bound by memory latency
     // (random cells of a table of one entry per light vertex, photon records in DRAM).

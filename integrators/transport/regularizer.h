@@ -48,9 +48,10 @@
 //        nothing (the field is left as it was).
 //
 //  (4) Where connections may be made, and the iteration.
-//        connectible(v): may a connection use v as an end (None: v.connectible(), no delta
-//        vertex; JG19 makes smooth conductors and dielectrics rough there, so every surface
-//        vertex with a BSDF may). Merges keep v.connectible(): photons lie on non-delta surfaces.
+//        connectible(v): may a connection use v as an end, and a merge gather there (the photon
+//        grid stores the light vertices where it holds, the camera walk merges where it holds;
+//        None: v.connectible(), no delta vertex; JG19 makes smooth conductors and dielectrics
+//        rough there, so every surface vertex with a BSDF may). PPM keeps v.connectible().
 //        beginIteration(n, scene, cfg): before iteration (pass) n >= 1 starts, walks included
 //        (JG19's tau_n), with the scene and the running integrator's techniques (cfg: its
 //        technique set, merging, and this iteration's merge area and light path count).
