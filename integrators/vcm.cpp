@@ -56,7 +56,7 @@ public:
         const size_t nChunks = (nPaths + kChunk - 1) / kChunk;
         chunks_.resize(nChunks);
         splats_.resize(nChunks);
-        std::atomic<uint64_t> rays{0};
+        std::atomic<uint64_t> rays{0}, contributions{0}, regularised{0};
         const int maxLight = useMerging_ || useConnections_ || useLightTracing_ ? maxDepth_ : 0;
         tbb::parallel_for(size_t(0), nChunks, [&](size_t c) {
             LightPathStore::Chunk& chunk = chunks_[c];
@@ -75,6 +75,8 @@ public:
                 if (useLightTracing_) lightTrace(scene, film, y.data(), ny, camera, splat, ws);
             }
             rays += ws.rays;
+            contributions += ws.contributions;  // (light tracing's)
+            regularised += ws.regularised;
         });
         store_.assign(chunks_);
         for (size_t c = 0; c < nChunks; ++c) {
@@ -84,6 +86,8 @@ public:
                     strategies_->add(false, sp.strategyS, 1, sp.pixel, sp.value, sp.regularised, sp.singular);
         }
         stats.rays += rays.load();
+        stats.contributions += contributions.load();
+        stats.regularised += regularised.load();
 
         // (2) Photon grid: light vertices after at least one segment that a merge can use (PPM:
         // non-delta ones, whatever the regulariser; see radiance()).
