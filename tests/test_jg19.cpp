@@ -95,6 +95,28 @@ void forEachConnection(const Scene& scene, const reg::Jg19& jg, const PathVertex
         }
 }
 
+// Every merge of a light vertex y[m] (m >= 1, on a surface a merge may use: smooth ones made
+// rough included) at a camera vertex z[t-1] (t >= 2) that carries something: fn(m, t, photon, c,
+// xs), xs the merged path's vertices x_0..x_{n-1} (y[0..m-1], then z[t-1]..z[0]).
+template <class Fn>
+void forEachMerge(const reg::Jg19& jg, const PathVertex* y, int ny, const PathVertex* z, int nz, Fn&& fn) {
+    for (int m = 1; m < ny; ++m) {
+        if (!jg.connectible(y[m]) || y[m].kind != VertexKind::Surface) continue;
+        std::vector<VertexPdfs> lp;
+        for (int k = 0; k <= m; ++k) lp.push_back(VertexPdfs::of(y[k]));
+        Photon ph;
+        ph.set(0, y[m], y[m - 1], y[0].light->isHittable(), 0.0);
+        for (int t = 2; t <= nz; ++t) {
+            Connection c;
+            if (!merge(jg, ph, y, lp.data(), z, t, c)) continue;
+            std::vector<const PathVertex*> xs;
+            for (int k = 0; k < m; ++k) xs.push_back(&y[k]);
+            for (int k = t - 1; k >= 0; --k) xs.push_back(&z[k]);
+            fn(m, t, ph, c, std::move(xs));
+        }
+    }
+}
+
 // The brute-force weight of a technique under JG19, from the path's vertices and its gathered
 // sampling densities (tested elsewhere), with nothing of the policy's bookkeeping (the walks'
 // stored ratios, the singular-vertex rule, the delta flags): every BSDF is evaluated here at the
@@ -275,23 +297,12 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
                     });
                 if (!merging) continue;
                 // Merges of this camera path with the light vertices of the same light walk.
-                for (int m = 1; m < ny; ++m) {
-                    if (!jg.connectible(y[m]) || y[m].kind != VertexKind::Surface) continue;
-                    std::vector<VertexPdfs> lp;
-                    for (int k = 0; k <= m; ++k) lp.push_back(VertexPdfs::of(y[k]));
-                    Photon ph;
-                    ph.set(0, y[m], y[m - 1], y[0].light->isHittable(), 0.0);
-                    for (int t = 2; t <= nz; ++t) {
-                        Connection c;
-                        if (!merge(jg, ph, y.data(), lp.data(), z.data(), t, c)) continue;
-                        std::vector<const PathVertex*> xs;
-                        for (int k = 0; k < m; ++k) xs.push_back(&y[k]);
-                        for (int k = t - 1; k >= 0; --k) xs.push_back(&z[k]);
-                        check(c.pdfs, xs, -1, m, &y[m]);
-                        ++merges;
-                        smoothMerges += z[t - 1].deltaBsdf;
-                    }
-                }
+                forEachMerge(jg, y.data(), ny, z.data(), nz,
+                             [&](int m, int t, const Photon&, const Connection& c, std::vector<const PathVertex*> xs) {
+                                 check(c.pdfs, std::move(xs), -1, m, &y[m]);
+                                 ++merges;
+                                 smoothMerges += z[t - 1].deltaBsdf;
+                             });
             }
             INFO("regularised MIS " << regularisedMis << " merging " << merging << ": " << checked << " weights, "
                                     << regularisedPaths << " on regularised paths, " << twoEnds
@@ -784,32 +795,22 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                 ++checked;
             });
         if (!merging) continue;
-        for (int m = 1; m < ny; ++m) {  // the merges of y[m] at each camera vertex
-            if (!jg.connectible(y[m]) || y[m].kind != VertexKind::Surface) continue;
-            std::vector<VertexPdfs> lp;
-            for (int k = 0; k <= m; ++k) lp.push_back(VertexPdfs::of(y[k]));
-            Photon ph;
-            ph.set(0, y[m], y[m - 1], y[0].light->isHittable(), 0.0);
-            for (int t = 2; t <= nz; ++t) {
-                Connection c;
-                if (!merge(jg, ph, y.data(), lp.data(), z.data(), t, c)) continue;
-                Technique own{y.data(), m + 1, z.data(), t, &ph};
-                REQUIRE(jg.select(own));
-                std::vector<int> R;
-                for (int j : own.regularised)
-                    if (j >= 0) R.push_back(j);
-                std::vector<const PathVertex*> xs;
-                for (int k = 0; k < m; ++k) xs.push_back(&y[k]);
-                for (int k = t - 1; k >= 0; --k) xs.push_back(&z[k]);
-                BruteForce bf{jg, std::move(xs), c.pdfs, cfg, false, m, &y[m], true, R};
-                const double ours = misWeightMerge(c.pdfs, m, cfg), ref = bf.weight(-1);
-                INFO("path " << i << " merge at " << m << " t=" << t << " ours " << ours << " brute force " << ref);
-                CHECK(std::abs(ours - ref) <= 2e-3);
-                worst = std::max(worst, std::abs(ours - ref));
-                ++merges;
-                smoothMerges += z[t - 1].deltaBsdf && ours > 0.0;
-            }
-        }
+        forEachMerge(jg, y.data(), ny, z.data(), nz,
+                     [&](int m, int t, const Photon& ph, const Connection& c, std::vector<const PathVertex*> xs) {
+                         Technique own{y.data(), m + 1, z.data(), t, &ph};
+                         REQUIRE(jg.select(own));
+                         std::vector<int> R;
+                         for (int j : own.regularised)
+                             if (j >= 0) R.push_back(j);
+                         BruteForce bf{jg, std::move(xs), c.pdfs, cfg, false, m, &y[m], true, R};
+                         const double ours = misWeightMerge(c.pdfs, m, cfg), ref = bf.weight(-1);
+                         INFO("path " << i << " merge at " << m << " t=" << t << " ours " << ours << " brute force "
+                                      << ref);
+                         CHECK(std::abs(ours - ref) <= 2e-3);
+                         worst = std::max(worst, std::abs(ours - ref));
+                         ++merges;
+                         smoothMerges += z[t - 1].deltaBsdf && ours > 0.0;
+                     });
     }
     INFO(checked << " weights, " << regularisedPaths << " on regularised paths, " << splits << " splits, " << merges
                  << " merges (" << smoothMerges << " on smooth surfaces made rough, with weight); worst " << worst);
