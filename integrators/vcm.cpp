@@ -190,10 +190,10 @@ private:
                     if (i + t - 1 > maxDepth_) return;
                     // The fast form (tested against the gathered); a regulariser with per-technique
                     // densities gets the light subpath for the paths it regularises.
+                    const size_t y0 = ph.vertex - ph.depth;  // the photon's light subpath in the store
                     const PathVertex* ly = nullptr;
                     const VertexPdfs* lp = nullptr;
                     if constexpr (Reg::kPerTechnique) {
-                        const size_t y0 = ph.vertex - ph.depth;  // the photon's light subpath in the store
                         ly = store_.vertices().data() + y0;
                         lp = store_.pdfs().data() + y0;
                     }
@@ -202,8 +202,7 @@ private:
                     // (singular: the light's delta position, smooth vertices up to y[i-1] and from
                     // the merge vertex z[t-1] to the camera)
                     record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel, c.pdfs.regularised,
-                           strategies_ && singularPath(store_.vertices().data() + (ph.vertex - ph.depth), i, z, t),
-                           stats);
+                           strategies_ && singularPath(store_.vertices().data() + y0, i, z, t), stats);
                 });
                 if (ppm_) break;  // PPM merges at the first non-delta camera vertex only
             }

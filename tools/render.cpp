@@ -52,7 +52,8 @@ int main(int argc, char** argv) {
     app.add_option("--radius-alpha", radiusAlpha, "VCM/PPM radius reduction: r_i = r_0 i^((alpha-1)/2), alpha in (0,1]")
         ->check(CLI::Range(1e-6, 1.0));
     app.add_option("--strategy-images", strategyImages,
-                   "Write each technique's weighted contribution (s_t.exr, merge_s.exr; under a regulariser regularised.exr) to this directory");
+                   "Write each technique's weighted contribution (s_t.exr, merge_s.exr; under a regulariser regularised.exr and "
+                   "singular.exr) to this directory");
     app.add_option("--pt-strategy", ptStrategy, "PT techniques: mis (default), nee, bsdf")
         ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
     std::string regularizer, regSchedule, regMis, regQuality, regDiffusion;
