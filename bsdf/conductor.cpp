@@ -1,6 +1,7 @@
 // Smooth (delta) and rough (microfacet) conductors, one-sided like Mitsuba 3: black when
 // wo.z <= 0 or wi.z <= 0. eta + i k is the complex IOR relative to the exterior.
 #include "bsdf/bsdf.h"
+#include "bsdf/cone_mollifier.h"
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
@@ -20,7 +21,7 @@ public:
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
-        if (a.delta) return BsdfEval{};
+        if (a.delta) return ctx.reg.cone > 0.f ? evalCone(wo, wi, ctx.reg.cone) : BsdfEval{};
         return evalRough(lobe_.microfacet(a), wo, wi);
     }
 
@@ -57,7 +58,9 @@ public:
     }
 
     uint32_t flags() const override { return rough_ ? (kReflection | kGlossy) : (kReflection | kDelta); }
-    bool deltaUnder(const BsdfContext& ctx) const override { return lobe_.resolve(ctx.reg, false, 1.f).delta; }
+    bool deltaUnder(const BsdfContext& ctx) const override {
+        return !(ctx.reg.cone > 0.f) && lobe_.resolve(ctx.reg, false, 1.f).delta;
+    }
     float valueBound(const BsdfContext& ctx) const override {
         const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
         if (a.delta) return kInf;
@@ -69,6 +72,15 @@ public:
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }
 
 private:
+    // KD13's cone around the mirror direction (bsdf/cone_mollifier.h): the weight of the delta
+    // sample, specR F(cos theta_o), spread over the cone. The densities stay 0 (nothing samples it).
+    BsdfEval evalCone(const Vec3& wo, const Vec3& wi, float eps) const {
+        BsdfEval e;
+        if (!(wo.z > 0.f) || !(wi.z > 0.f)) return e;
+        e.f = ConeMollifier(eps).eval(specR_ * fresnelConductor(wo.z, eta_, k_), wi, idealReflection(wo));
+        return e;
+    }
+
     // The rough lobe with the alphas of one call (the material's, or the regularised ones).
     BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi) const {
         BsdfEval e;

@@ -8,6 +8,7 @@
 // An index-matched interface (eta == 1) has no reflection and a straight-through delta
 // refraction, rough or not.
 #include "bsdf/bsdf.h"
+#include "bsdf/cone_mollifier.h"
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
@@ -27,7 +28,10 @@ public:
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
-        if (eta_ == 1.f || wo.z == 0.f || wi.z == 0.f) return BsdfEval{};
+        if (wo.z == 0.f || wi.z == 0.f) return BsdfEval{};
+        if (ctx.reg.cone > 0.f && (eta_ == 1.f || lobe_.resolve(ctx.reg, true, eta_).delta))
+            return evalCone(wo, wi, ctx.reg.cone, ctx.mode);
+        if (eta_ == 1.f) return BsdfEval{};
         // The request resolved for the lobe of this pair (reflection or transmission).
         const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, !(wo.z * wi.z > 0.f), eta_);
         if (a.delta) return BsdfEval{};
@@ -119,6 +123,7 @@ public:
     std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }
     // The transmission bound gives the larger alpha_hat (see sample): rough there first.
     bool deltaUnder(const BsdfContext& ctx) const override {
+        if (ctx.reg.cone > 0.f) return false;  // KD13's cone (evalCone)
         return eta_ == 1.f || lobe_.resolve(ctx.reg, true, eta_).delta;
     }
     // The larger of the reflection and transmission bounds, each with the alphas eval resolves
@@ -137,6 +142,29 @@ public:
     }
 
 private:
+    // KD13's cone (bsdf/cone_mollifier.h) around the ideal reflected and refracted directions of
+    // wo, each with the weight of its delta sample: specR F, and specT (1 - F) (times 1/eta^2 for
+    // radiance), F of the macro normal at wo; an index-matched interface has the straight-through
+    // lobe only. The densities stay 0 (nothing samples it). (Used where the lobes are deltas: a
+    // smooth interface, or one whose request leaves it smooth.)
+    BsdfEval evalCone(const Vec3& wo, const Vec3& wi, float eps, TransportMode mode) const {
+        BsdfEval e;
+        const ConeMollifier cone(eps);
+        const float etaRel = wo.z > 0.f ? eta_ : 1.f / eta_;
+        if (wo.z * wi.z > 0.f) {
+            if (eta_ == 1.f) return e;
+            const float F = fresnelDielectric(std::abs(wo.z), etaRel);
+            e.f = cone.eval(specR_ * F, wi, idealReflection(wo));
+            return e;
+        }
+        DVec3 t;
+        if (!idealRefraction(wo, eta_, t)) return e;  // (total internal reflection: no transmission)
+        const float F = fresnelDielectric(std::abs(wo.z), etaRel);
+        const float radiance = mode == TransportMode::Radiance ? 1.f / (etaRel * etaRel) : 1.f;
+        e.f = cone.eval(specT_ * ((1.f - F) * radiance), wi, t);
+        return e;
+    }
+
     // The rough lobes with the alphas of one call (the material's, or the regularised ones), for
     // wo.z != 0, wi.z != 0 and eta != 1.
     BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi, TransportMode mode) const {

@@ -146,6 +146,16 @@ private:
                 p.failAt("reg_diffusion", "the diffusion heuristic needs reg_quality true (it scales the bound at the "
                                           "vertices the quality heuristic chooses per path)");
         }
+        if (p.has("reg_r0")) {
+            I.regR0 = p.getFloat("reg_r0", -1.f);
+            if (!(I.regR0 > 0.0) || !std::isfinite(I.regR0))
+                p.failAt("reg_r0", fmt::format("must be a positive length (got {})", I.regR0));
+        }
+        if (p.has("reg_lambda")) {
+            I.regLambda = p.getFloat("reg_lambda", -1.f);
+            if (!(I.regLambda >= 0.0 && I.regLambda < 0.5))
+                p.failAt("reg_lambda", fmt::format("must be in [0, 0.5) (got {})", I.regLambda));
+        }
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.
         if (p.has("initial_radius") && p.has("radius")) p.failAt("radius", "give either radius or initial_radius");

@@ -11,6 +11,7 @@ namespace lt {
 
 using Vec2 = glm::vec2;
 using Vec3 = glm::vec3;
+using DVec3 = glm::dvec3;
 using Vec4 = glm::vec4;
 using Mat4 = glm::mat4;
 using Color = glm::vec3;  // linear RGB

@@ -7,6 +7,7 @@
 #include <string>
 #include "core/film.h"
 #include "integrators/transport/jg19.h"
+#include "integrators/transport/kd13.h"
 #include "integrators/transport/path.h"
 #include "core/scene.h"
 
@@ -34,7 +35,7 @@ struct RenderSettings {
     int onlyS = -1, onlyT = -1;
     // Test hook: scales the MIS weights of connections with s >= 2 (1 = correct).
     float testMisScale = 1.f;
-    // Path-space regularisation (integrators/transport/regularizer.h): none | jg19.
+    // Path-space regularisation (integrators/transport/regularizer.h): none | jg19 | kd13.
     std::string regularizer = "none";
     double regTau = -1.0;                    // JG19 tau_0; <= 0: the integrator's default (regTauDefault)
     std::string regSchedule = "consistent";  // consistent (JG19 Eq. 16) | fixed
@@ -44,6 +45,10 @@ struct RenderSettings {
     // without it (it scales the bound at the vertices the quality heuristic chooses; on with the
     // quality heuristic off is an error).
     std::optional<bool> regDiffusion;
+    // KD13 (integrators/transport/kd13.h): r_0 (<= 0: 1% of the geometry's bounding radius) and
+    // lambda of r_N = r_0 N^-lambda (< 0: 1/6 for one mollified vertex, 1/12 for two).
+    double regR0 = -1.0;
+    double regLambda = -1.0;
 };
 
 // Whether JG19's diffusion heuristic runs for these settings (unset: as the quality heuristic).
@@ -52,6 +57,7 @@ inline bool regDiffusionOf(const RenderSettings& s) { return s.regDiffusion.valu
 // The bound tau of a regulariser's current iteration, for the statistics (0: none).
 inline double regularisationTauOf(const reg::None&) { return 0.0; }
 inline double regularisationTauOf(const reg::Jg19& r) { return r.tau(); }
+inline double regularisationTauOf(const reg::Kd13& r) { return r.radius(1); }  // (KD13: r_N of one vertex)
 
 // JG19's default tau_0 (Sec. 6): 30 for PT and BPT (and LT), 1000 for VCM (and PPM).
 double regTauDefault(const std::string& integrator);

@@ -123,5 +123,8 @@ std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::N
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Jg19& reg) {
     return std::make_unique<PathTracer<reg::Jg19>>(s, reg);
 }
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Kd13& reg) {
+    return std::make_unique<PathTracer<reg::Kd13>>(s, reg);
+}
 
 }  // namespace lt

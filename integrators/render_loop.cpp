@@ -13,6 +13,8 @@ std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::N
 std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::None& reg);
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Jg19& reg);
 std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Jg19& reg);
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Kd13& reg);
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Kd13& reg);
 
 double regTauDefault(const std::string& integrator) {
     return integrator == "vcm" || integrator == "ppm" ? 1000.0 : 30.0;
@@ -65,6 +67,16 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
                                         "heuristic (reg_quality, --reg-quality on): it scales the bound at the vertices "
                                         "that heuristic chooses per path");
         return makeWith(s, reg::Jg19(j));
+    }
+    if (s.regularizer == "kd13") {
+        if (s.integrator == "pt" && s.ptStrategy == "nee")
+            throw std::invalid_argument("--reg kd13 needs --pt-strategy mis or bsdf: 'nee' drops the emitter hits after a "
+                                        "smooth vertex, where KD13 lets next-event estimation contribute only for a point "
+                                        "light (the light of an area light behind glass would be lost)");
+        reg::Kd13Settings k;
+        k.r0 = s.regR0;
+        k.lambda = s.regLambda;
+        return makeWith(s, reg::Kd13(k));
     }
     throw std::invalid_argument(fmt::format("unknown regulariser '{}' (supported: {})", s.regularizer,
                                             fmt::join(kRegularizerNames, ", ")));

@@ -158,17 +158,18 @@ private:
                 if (!isBlack(c))
                     record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel, false, false, stats);
             }
-            // Connections and merges at the vertices the regulariser makes connectible (without
-            // one: not at infinity, not delta; JG19 adds the smooth vertices its request makes
-            // rough). PPM, which has no MIS to share a path between techniques, merges at
-            // non-delta vertices only, the first one of the camera walk.
+            // Connections and merges at the vertices the regulariser makes connectible and
+            // mergeable (without one: not at infinity, not delta; JG19 adds the smooth vertices its
+            // request makes rough to both, KD13 to connections). PPM, which has no MIS to share a
+            // path between techniques, merges at non-delta vertices only, the first one of the
+            // camera walk.
             const bool canConnect = !v.infinite && reg_.connectible(v);
-            const bool canMerge = ppm_ ? !v.infinite && v.connectible() : canConnect;
-            if (!canConnect) {
+            const bool canMerge = !v.infinite && (ppm_ ? v.connectible() : reg_.mergeable(v));
+            if (!canConnect && !canMerge) {
                 allDelta = allDelta && v.delta;
                 continue;
             }
-            if (useConnections_) {
+            if (useConnections_ && canConnect) {
                 // s = 1: next-event estimation with a fresh light sample.
                 PathVertex lv;
                 Connection c;
@@ -182,7 +183,7 @@ private:
                         record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel,
                                c.pdfs.regularised, strategies_ && singularPath(y, s, z, t), stats);
             }
-            if (!canMerge) continue;  // (PPM at a smooth vertex a regulariser made connectible: still delta)
+            if (!canMerge) continue;  // (a smooth vertex a regulariser lets connections end at, not merges)
             if (useMerging_) {
                 Connection c;
                 grid_.scan(v.p, cells[t - 1], [&](const Photon& ph) {
@@ -247,6 +248,9 @@ std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg
 }
 std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Jg19& reg) {
     return std::make_unique<Bidirectional<reg::Jg19>>(s, reg);
+}
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Kd13& reg) {
+    return std::make_unique<Bidirectional<reg::Kd13>>(s, reg);
 }
 
 }  // namespace lt

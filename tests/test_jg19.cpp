@@ -12,6 +12,7 @@
 #include "integrators/transport/light_paths.h"
 #include "integrators/transport/path_templates.h"
 #include "process.h"
+#include "regularizer_paths.h"
 #include "scene_builders.h"
 
 using namespace lt;
@@ -19,28 +20,6 @@ using namespace lt::test;
 
 namespace {
 
-// Glossy panel (GGX alpha 0.05), a smooth glass sphere and a smooth mirror ball in the box.
-SceneDesc mixedScene(int res) {
-    SceneDesc d = cornellBox(res, makeRoughConductor(MicrofacetType::GGX, 0.05f, 0.05f, Color(0.2f, 0.9f, 1.1f),
-                                                     Color(3.9f, 2.4f, 2.1f), Color(1.f)));
-    d.bsdfs.push_back(makeDielectric(1.5f));
-    d.spheres[0].bsdf = int(d.bsdfs.size()) - 1;  // the box's sphere: glass
-    d.bsdfs.push_back(makeConductor(Color(0.2f), Color(3.f), Color(1.f)));
-    d.meshes.push_back(smoothSphere(Vec3(-0.45f, -0.65f, 0.2f), 0.3f, 8, 12, int(d.bsdfs.size()) - 1));
-    return d;
-}
-
-// The same with a point light inside the glass sphere besides the area light: its paths
-// (L S ...) are the ones no connection samples well.
-SceneDesc mixedSceneWithPointInGlass(int res) {
-    SceneDesc d = mixedScene(res);
-    EmitterDesc point;
-    point.type = EmitterType::Point;
-    point.position = d.spheres[0].center;
-    point.value = Color(3.f);
-    d.emitters.push_back(point);
-    return d;
-}
 
 RenderSettings settingsFor(const std::string& integrator, int spp) {
     RenderSettings s;
@@ -80,20 +59,6 @@ TEST_CASE("JG19 with a bound that changes no lobe renders bit-identically to no 
 
 namespace {
 
-// Every connection (s, t), s + t >= 3, of a light subpath y[0..ny-1] with a camera subpath
-// z[0..nz-1] (t = 1: with the camera endpoint cam) that carries something: fn(s, t, zz, c), zz the
-// camera side used.
-template <class Fn>
-void forEachConnection(const Scene& scene, const reg::Jg19& jg, const PathVertex* y, int ny, const PathVertex* z,
-                       int nz, const PathVertex& cam, WalkStats& ws, Fn&& fn) {
-    for (int s = 1; s <= ny; ++s)
-        for (int t = 1; t <= nz; ++t) {
-            if (s + t < 3) continue;
-            const PathVertex* zz = t == 1 ? &cam : z;
-            Connection c;
-            if (connect(scene, jg, y, s, zz, t, c, ws)) fn(s, t, zz, c);
-        }
-}
 
 // Every merge of a light vertex y[m] (m >= 1, on a surface a merge may use: smooth ones made
 // rough included) at a camera vertex z[t-1] (t >= 2) that carries something: fn(m, t, photon, c,
@@ -445,44 +410,6 @@ namespace {
 // A path built by hand: x_0 (light) .. x_{n-1} (camera), its records written as a walk writes
 // them (start at the two endpoints, extend along each subpath), split into a light subpath of s
 // vertices and a camera subpath of n - s.
-struct HandPath {
-    std::vector<PathVertex> x;
-    std::array<PathVertex, kMaxPathVertices> y, z;
-    void add(VertexKind kind, const Vec3& p, const Bxdf* bxdf, const Light* light = nullptr,
-             const Vec3& ng = Vec3(0.f, 0.f, 1.f)) {
-        PathVertex v;
-        v.p = p;
-        v.ng = ng;
-        v.shading = Frame(ng);
-        v.bxdf = bxdf;
-        v.light = light;
-        v.deltaBsdf = bxdf && bxdf->isDelta();
-        v.kind = kind;
-        x.push_back(v);
-    }
-    // The technique with s light vertices (s = 0: the emitter hit, x_0 on the light's surface).
-    Technique technique(const reg::Jg19& jg, int s) {
-        const int n = int(x.size());
-        // (wo, segmentLength and pathLength as PathVertex::init writes them.)
-        auto link = [&](PathVertex& v, PathVertex* prev) {
-            v.wo = prev ? glm::normalize(prev->p - v.p) : Vec3(0.f);
-            v.segmentLength = prev ? glm::length(prev->p - v.p) : 0.f;
-            v.pathLength = prev ? prev->pathLength + v.segmentLength : 0.f;
-            if (prev) jg.extend(v, *prev);
-            else jg.start(v);
-        };
-        for (int k = 0; k < s; ++k) {
-            y[k] = x[k];
-            link(y[k], k ? &y[k - 1] : nullptr);
-        }
-        for (int k = 0; k < n - s; ++k) {
-            z[k] = x[n - 1 - k];
-            link(z[k], k ? &z[k - 1] : nullptr);
-        }
-        if (s == 0) z[n - 1].kind = VertexKind::Surface;  // the camera walk's emitter hit
-        return Technique{s ? y.data() : nullptr, s, z.data(), n - s};
-    }
-};
 
 // (Without the diffusion heuristic unless asked: the hand computations of q use tau itself.)
 reg::Jg19 fixedTau(double tau, const Scene& scene, const MisConfig& cfg, bool diffusion = false) {

@@ -58,7 +58,9 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
     std::string regularizer, regSchedule, regMis, regQuality, regDiffusion;
     double regTau = -1.0;
-    app.add_option("--reg", regularizer, "Path-space regulariser: none (default), jg19 (overrides the scene's)")
+    app.add_option("--reg", regularizer,
+                   "Path-space regulariser: none (default), jg19 (microfacet roughness bound), kd13 (cone mollifier "
+                   "of smooth vertices on paths no technique of the integrator samples); overrides the scene's")
         ->check(CLI::IsMember(kRegularizerNames));
     app.add_option("--reg-tau", regTau,
                    "JG19 bound tau_0 on the BSDF at connections and merges (default 30 for pt/bpt/lt, 1000 for "
@@ -81,6 +83,15 @@ int main(int argc, char** argv) {
                    "sharper near the camera, blurrier after rough bounces. on (default with --reg-quality on) or off; "
                    "it needs the quality heuristic")
         ->check(CLI::IsMember({"on", "off"}));
+    double regR0 = -1.0, regLambda = -1.0;
+    app.add_option("--reg-r0", regR0,
+                   "KD13 initial radius r_0 of the cone at a smooth vertex, eps = arctan(r_N / l) over a connection of "
+                   "length l (default 1% of the geometry's bounding radius; KD13 Sec. 6)")
+        ->check(CLI::Range(1e-30, 1e30));
+    app.add_option("--reg-lambda", regLambda,
+                   "KD13 radius reduction r_N = r_0 N^-lambda, N the pass (default 1/6 for one mollified vertex, 1/12 for "
+                   "two, KD13 Sec. 5.1; consistent for lambda < 1/2 with one, < 1/4 with two; 0: a fixed radius)")
+        ->check(CLI::Range(0.0, 0.4999999));
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
     app.footer("Exit codes: 0 success, 1 bad command line, 2 bad scene, 3 output not written, 4 runtime error.");
@@ -142,6 +153,21 @@ int main(int argc, char** argv) {
     settings.regMis = !regMis.empty() ? regMis : desc.integrator.regMis;
     settings.regQuality = !regQuality.empty() ? regQuality == "on" : desc.integrator.regQuality;
     settings.regDiffusion = !regDiffusion.empty() ? std::optional<bool>(regDiffusion == "on") : desc.integrator.regDiffusion;
+    settings.regR0 = regR0 > 0.0 ? regR0 : desc.integrator.regR0;
+    settings.regLambda = regLambda >= 0.0 ? regLambda : desc.integrator.regLambda;
+    // A knob of another regulariser than the one that runs is a mistake, not a no-op.
+    {
+        const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
+                              !regDiffusion.empty();
+        const bool kd13Knob = regR0 > 0.0 || regLambda >= 0.0;
+        if ((jg19Knob && settings.regularizer != "jg19") || (kd13Knob && settings.regularizer != "kd13")) {
+            fmt::print(stderr, "error: {} applies to --reg {} only (this render: --reg {})\n",
+                       jg19Knob && settings.regularizer != "jg19" ? "--reg-tau/-schedule/-mis/-quality/-diffusion"
+                                                                  : "--reg-r0/--reg-lambda",
+                       jg19Knob && settings.regularizer != "jg19" ? "jg19" : "kd13", settings.regularizer);
+            return 1;
+        }
+    }
 
     if (settings.regularizer == "jg19" && !settings.regQuality)
         fmt::print(stderr, "warning: --reg jg19 --reg-quality off regularises every technique at its own ends: "
@@ -193,8 +219,8 @@ int main(int argc, char** argv) {
     const double regShare =
         stats.contributions ? double(stats.regularisedContributions) / double(stats.contributions) : 0.0;
     if (settings.regularizer != "none")
-        fmt::print(", {}: {:.1f}% of contributions regularised, tau_N {:.4g}", settings.regularizer, 100.0 * regShare,
-                   stats.tau);
+        fmt::print(", {}: {:.1f}% of contributions regularised, {} {:.4g}", settings.regularizer, 100.0 * regShare,
+                   settings.regularizer == "kd13" ? "r_N" : "tau_N", stats.tau);
     fmt::print(" -> {}\n", output);
     if (!statsJson.empty()) {
         nlohmann::json j;
@@ -215,13 +241,20 @@ int main(int argc, char** argv) {
         j["max_depth"] = settings.maxDepth;
         j["rr_depth"] = rrDepthOf(settings);
         j["regularizer"] = settings.regularizer;
-        if (settings.regularizer != "none") {
+        if (settings.regularizer == "jg19") {
             j["reg_tau0"] = settings.regTau > 0.0 ? settings.regTau : regTauDefault(settings.integrator);
             j["reg_schedule"] = settings.regSchedule;
             j["reg_mis"] = settings.regMis;
             j["reg_quality"] = settings.regQuality;
             j["reg_diffusion"] = regDiffusionOf(settings);
             j["reg_tau_last"] = stats.tau;
+        }
+        if (settings.regularizer == "kd13") {
+            j["reg_r0"] = settings.regR0;  // (-1: the default, 1% of the geometry's bounding radius)
+            j["reg_lambda"] = settings.regLambda;  // (-1: the defaults, 1/6 and 1/12)
+            j["reg_r_last"] = stats.tau;  // r_N of one mollified vertex at the last pass
+        }
+        if (settings.regularizer != "none") {
             j["contributions"] = stats.contributions;
             j["regularised_contributions"] = stats.regularisedContributions;
             j["regularised_share"] = regShare;

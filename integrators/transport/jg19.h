@@ -218,6 +218,8 @@ public:
         if (v.connectible()) return true;
         return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && (!v.deltaBsdf || v.roughenedByRequest);
     }
+    // Merges on the smooth vertices made rough too (1).
+    bool mergeable(const PathVertex& v) const { return connectible(v); }
 
     // rho_hat / rho of v's BSDF between v.wo and wi (1 where nothing changes, +inf where rho is a
     // delta or 0 and rho_hat is not).

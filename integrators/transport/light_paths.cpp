@@ -1,5 +1,6 @@
 #include "integrators/transport/light_paths.h"
 #include "integrators/transport/jg19.h"
+#include "integrators/transport/kd13.h"
 #include <tbb/parallel_for.h>
 
 namespace lt {
@@ -56,7 +57,7 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
             const double prevPrefix = prefix;
             prefix = lightPrefixSum(pdfs.data() + (k - y.depth), y.depth, hittable, cfg, y.depth > 0 ? prefix : 0.0);
             if (k < r.begin()) continue;
-            if (y.depth < 1 || y.kind != VertexKind::Surface || !reg.connectible(y)) {
+            if (y.depth < 1 || y.kind != VertexKind::Surface || !reg.mergeable(y)) {
                 cellOf_[k] = UINT32_MAX;
                 continue;
             }
@@ -88,5 +89,6 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
 
 template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::None&);
 template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Jg19&);
+template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Kd13&);
 
 }  // namespace lt

@@ -84,9 +84,9 @@ struct Photon {
 class HashGrid {
 public:
     // Inserts the light vertices a merge can use: after at least one segment, on a surface, where
-    // the regulariser lets a connection or merge end (reg.connectible: without one, not a delta
-    // vertex; under JG19 also the smooth ones its request makes rough). Instantiated for the
-    // renderer's policies in light_paths.cpp.
+    // the regulariser lets a merge gather (reg.mergeable: without one, not a delta vertex; under
+    // JG19 also the smooth ones its request makes rough). Instantiated for the renderer's
+    // policies in light_paths.cpp.
     template <class Reg>
     void build(const LightPathStore& store, float radius, const MisConfig& cfg, const Reg& reg);
     void build(const LightPathStore& store, float radius, const MisConfig& cfg) { build(store, radius, cfg, reg::kNone); }

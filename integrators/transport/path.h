@@ -329,6 +329,7 @@ inline void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, 
 inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
 
 inline bool reg::None::connectible(const PathVertex& v) const { return v.connectible(); }
+inline bool reg::None::mergeable(const PathVertex& v) const { return v.connectible(); }
 
 // Whether the path of connection technique (s, t) (light subpath y[0..s-1], camera subpath
 // z[0..t-1]; t = 1: light tracing) is one no unregularised technique can produce: its light is a

@@ -215,7 +215,7 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
            int t, Connection& c, const double* cameraSums) {
     const int i = ph.depth;
     const PathVertex& zv = z[t - 1];
-    if (i < 1 || t < 2 || !reg.connectible(zv) || zv.infinite) return false;
+    if (i < 1 || t < 2 || !reg.mergeable(zv) || zv.infinite) return false;
     if (glm::dot(ph.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
     Technique tech{y, i + 1, z, t, &ph};
     if (!reg.select(tech)) return false;  // regularizer.h (5)

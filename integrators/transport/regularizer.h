@@ -47,11 +47,13 @@
 //        neighbours are known from then on (JG19's ratio rho_hat / rho at prev). None writes
 //        nothing (the field is left as it was).
 //
-//  (4) Where connections may be made, and the iteration.
-//        connectible(v): may a connection use v as an end, and a merge gather there (the photon
-//        grid stores the light vertices where it holds, the camera walk merges where it holds;
-//        None: v.connectible(), no delta vertex; JG19 makes smooth conductors and dielectrics
-//        rough there, so every surface vertex with a BSDF may). PPM keeps v.connectible().
+//  (4) Where connections and merges may be made, and the iteration.
+//        connectible(v): may a connection use v as an end (None: v.connectible(), no delta
+//        vertex; JG19 makes smooth conductors and dielectrics rough there, and KD13 puts its cone
+//        there, so every surface vertex with a BSDF may). mergeable(v): may a merge gather at v
+//        (the photon grid stores the light vertices where it holds, the camera walk merges where
+//        it holds; None and KD13: v.connectible(); JG19: connectible(v)). PPM keeps
+//        v.connectible().
 //        beginIteration(n, scene, cfg): before iteration (pass) n >= 1 starts, walks included
 //        (JG19's tau_n), with the scene and the running integrator's techniques (cfg: its
 //        technique set, merging, and this iteration's merge area and light path count).
@@ -116,8 +118,9 @@ struct Technique {
     // request; +inf when rho is 0 or a delta). Written by connect and merge before densities().
     float ratioLight = 1.f, ratioCamera = 1.f;
     // The x indices (path.h: x_0 the light end) of the vertices of this path that the policy
-    // regularises (regularizer.h (5); -1: none), written by select(), and the bound tau of the
-    // request at each (a policy whose request varies per vertex: JG19's diffusion heuristic).
+    // regularises (regularizer.h (5); -1: none), written by select(), and the parameter of the
+    // request at each (a policy whose request varies per vertex or per path: JG19's bound tau
+    // under the diffusion heuristic, KD13's cone half-angle).
     int regularised[2] = {-1, -1};
     float bound[2] = {kInf, kInf};
 };
@@ -142,6 +145,7 @@ struct None {
     void extend(PathVertex&, PathVertex&) const {}
     // (4) Connections at non-delta vertices only; nothing depends on the iteration.
     bool connectible(const PathVertex& v) const;
+    bool mergeable(const PathVertex& v) const;
     void beginIteration(uint64_t, const Scene&, const MisConfig&) {}
     // (5) Nothing regularised; every technique contributes.
     bool select(Technique&) const { return true; }

@@ -1,0 +1,92 @@
+// Fixtures shared by the regularisers' tests (test_jg19.cpp, test_kd13.cpp): a box with glossy,
+// smooth glass and mirror surfaces, paths built by hand on a line, and every connection of two
+// walked subpaths.
+#pragma once
+#include <array>
+#include <vector>
+#include "integrators/transport/path_templates.h"
+#include "scene_builders.h"
+
+namespace lt::test {
+
+// Glossy panel (GGX alpha 0.05), a smooth glass sphere and a smooth mirror ball in the box.
+inline SceneDesc mixedScene(int res) {
+    SceneDesc d = cornellBox(res, makeRoughConductor(MicrofacetType::GGX, 0.05f, 0.05f, Color(0.2f, 0.9f, 1.1f),
+                                                     Color(3.9f, 2.4f, 2.1f), Color(1.f)));
+    d.bsdfs.push_back(makeDielectric(1.5f));
+    d.spheres[0].bsdf = int(d.bsdfs.size()) - 1;  // the box's sphere: glass
+    d.bsdfs.push_back(makeConductor(Color(0.2f), Color(3.f), Color(1.f)));
+    d.meshes.push_back(smoothSphere(Vec3(-0.45f, -0.65f, 0.2f), 0.3f, 8, 12, int(d.bsdfs.size()) - 1));
+    return d;
+}
+
+// The same with a point light inside the glass sphere besides the area light: its paths
+// (L S ...) are the ones no connection samples well.
+inline SceneDesc mixedSceneWithPointInGlass(int res) {
+    SceneDesc d = mixedScene(res);
+    EmitterDesc point;
+    point.type = EmitterType::Point;
+    point.position = d.spheres[0].center;
+    point.value = Color(3.f);
+    d.emitters.push_back(point);
+    return d;
+}
+
+// Every connection (s, t), s + t >= 3, of a light subpath y[0..ny-1] with a camera subpath
+// z[0..nz-1] (t = 1: with the camera endpoint cam) that carries something: fn(s, t, zz, c), zz the
+// camera side used.
+template <class Reg, class Fn>
+void forEachConnection(const Scene& scene, const Reg& jg, const PathVertex* y, int ny, const PathVertex* z,
+                       int nz, const PathVertex& cam, WalkStats& ws, Fn&& fn) {
+    for (int s = 1; s <= ny; ++s)
+        for (int t = 1; t <= nz; ++t) {
+            if (s + t < 3) continue;
+            const PathVertex* zz = t == 1 ? &cam : z;
+            Connection c;
+            if (connect(scene, jg, y, s, zz, t, c, ws)) fn(s, t, zz, c);
+        }
+}
+
+// A path built by hand (x_0 the light end), split into the records of any technique as the walks
+// write them (the policy's start and extend included).
+struct HandPath {
+    std::vector<PathVertex> x;
+    std::array<PathVertex, kMaxPathVertices> y, z;
+    void add(VertexKind kind, const Vec3& p, const Bxdf* bxdf, const Light* light = nullptr,
+             const Vec3& ng = Vec3(0.f, 0.f, 1.f)) {
+        PathVertex v;
+        v.p = p;
+        v.ng = ng;
+        v.shading = Frame(ng);
+        v.bxdf = bxdf;
+        v.light = light;
+        v.deltaBsdf = bxdf && bxdf->isDelta();
+        v.kind = kind;
+        x.push_back(v);
+    }
+    // The technique with s light vertices (s = 0: the emitter hit, x_0 on the light's surface).
+    template <class Reg>
+    Technique technique(const Reg& jg, int s) {
+        const int n = int(x.size());
+        // (wo, segmentLength and pathLength as PathVertex::init writes them.)
+        auto link = [&](PathVertex& v, PathVertex* prev) {
+            v.wo = prev ? glm::normalize(prev->p - v.p) : Vec3(0.f);
+            v.segmentLength = prev ? glm::length(prev->p - v.p) : 0.f;
+            v.pathLength = prev ? prev->pathLength + v.segmentLength : 0.f;
+            if (prev) jg.extend(v, *prev);
+            else jg.start(v);
+        };
+        for (int k = 0; k < s; ++k) {
+            y[k] = x[k];
+            link(y[k], k ? &y[k - 1] : nullptr);
+        }
+        for (int k = 0; k < n - s; ++k) {
+            z[k] = x[n - 1 - k];
+            link(z[k], k ? &z[k - 1] : nullptr);
+        }
+        if (s == 0) z[n - 1].kind = VertexKind::Surface;  // the camera walk's emitter hit
+        return Technique{s ? y.data() : nullptr, s, z.data(), n - s};
+    }
+};
+
+}  // namespace lt::test

@@ -1,0 +1,244 @@
+// KD13 (integrators/transport/kd13.h): the cone mollifier of smooth BSDFs, the choice of paths and
+// of the estimator (maximum-distance heuristic), and renders.
+#include <catch2/catch.hpp>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <vector>
+#include "bsdf/cone_mollifier.h"
+#include "bsdf/fresnel.h"
+#include "core/loader.h"
+#include "integrators/integrator.h"
+#include "integrators/transport/kd13.h"
+#include "process.h"
+#include "regularizer_paths.h"
+#include "scene_builders.h"
+
+using namespace lt;
+using namespace lt::test;
+
+namespace {
+
+// The integral of f |cos wi| over the directions around `ideal` (local frame), out to 1.5 eps, by
+// the midpoint rule in polar coordinates about the ideal direction (theta' fine enough that the
+// cone's edge falls inside a cell of width 1.5 eps / 600: the rule's error there is < 1e-3). The
+// directions are built in double and rounded to float, as a connection's are.
+double coneIntegral(const Bxdf& b, const Vec3& wo, const BsdfContext& ctx, const DVec3& ideal, double eps) {
+    const DVec3 n = glm::normalize(ideal);
+    const DVec3 helper = std::abs(n.z) < 0.9 ? DVec3(0, 0, 1) : DVec3(1, 0, 0);
+    const DVec3 u = glm::normalize(glm::cross(helper, n)), v = glm::cross(n, u);
+    const int nTheta = 600, nPhi = 64;
+    const double thetaMax = 1.5 * eps, dTheta = thetaMax / nTheta, dPhi = 2.0 * std::numbers::pi / nPhi;
+    double sum = 0.0;
+    for (int i = 0; i < nTheta; ++i) {
+        const double th = (i + 0.5) * dTheta;
+        for (int j = 0; j < nPhi; ++j) {
+            const double ph = (j + 0.5) * dPhi;
+            const DVec3 w = std::cos(th) * n + std::sin(th) * (std::cos(ph) * u + std::sin(ph) * v);
+            const Vec3 wf(w);
+            const BsdfEval e = b.eval(wo, wf, ctx);
+            sum += double(e.f.x) * std::abs(double(wf.z)) * std::sin(th) * dTheta * dPhi;
+        }
+    }
+    return sum;
+}
+
+BsdfContext coneContext(TransportMode mode, float eps) {
+    BsdfContext c(mode);
+    c.reg.cone = eps;
+    return c;
+}
+
+reg::Kd13 kd13For(TechniqueSet set, bool merging, double r0 = 0.01, double lambda = -1.0) {
+    reg::Kd13Settings k;
+    k.r0 = r0;
+    k.lambda = lambda;
+    reg::Kd13 kd(k);
+    kd.setScale(r0, 10.0);
+    kd.setTechniques(set, merging);
+    kd.setIteration(1);
+    return kd;
+}
+
+RenderSettings settingsFor(const std::string& integrator, int spp) {
+    RenderSettings s;
+    s.integrator = integrator;
+    s.spp = spp;
+    s.threads = 2;
+    s.seed = 5;
+    s.maxDepth = 6;
+    s.quiet = true;
+    return s;
+}
+
+}  // namespace
+
+TEST_CASE("KD13 cone: Omega = 4 pi sin^2(eps/2) stays accurate, positive and finite", "[kd13][cone]") {
+    // Against the solid angle in long double, 2 pi (1 - cos eps) = 4 pi sin^2(eps/2) (the sine
+    // form: in long double too, 1 - cos eps keeps only ~5 digits at eps = 1e-7): relative 1e-6 in
+    // float for every eps from 1e-7 to 0.5 rad. The float form 2 pi (1 - cos eps) is 0 below eps
+    // ~ 3e-4, which is why it is not used.
+    for (double eps : {1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 0.5}) {
+        const long double half = std::sin((long double)float(eps) / 2.0L);
+        const long double exact = 4.0L * std::numbers::pi_v<long double> * half * half;
+        const float omega = coneSolidAngle(float(eps));
+        INFO("eps " << eps << " Omega " << omega << " exact " << double(exact));
+        CHECK(std::abs(double(omega) / double(exact) - 1.0) < 1e-6);
+        CHECK(ConeMollifier(float(eps)).invOmega > 0.f);
+        CHECK(std::isfinite(ConeMollifier(float(eps)).invOmega));
+    }
+    CHECK(2.f * kPi * (1.f - std::cos(1e-4f)) == 0.f);
+    // Every r_N the schedule reaches by N = 1e12, for the default lambdas and a fixed radius, over
+    // connections from 1e-4 to 1e4 scene radii: eps > 0 and 1 / Omega finite.
+    for (double lambda : {-1.0, 0.0, 0.49}) {
+        const reg::Kd13 kd = kd13For(TechniqueSet::Bidirectional, false, 0.01, lambda);
+        for (double N : {1.0, 1e3, 1e6, 1e9, 1e12}) {
+            reg::Kd13 k = kd;
+            k.setIteration(uint64_t(N));
+            for (int m : {1, 2})
+                for (double l : {1e-4, 1.0, 1e4, double(kInf)}) {
+                    const float eps = float(k.coneAngle(m, l));
+                    const ConeMollifier c(eps);
+                    INFO("lambda " << lambda << " N " << N << " mollified " << m << " l " << l << " eps " << eps);
+                    CHECK(eps > 0.f);
+                    CHECK(c.invOmega > 0.f);
+                    CHECK(std::isfinite(c.invOmega));
+                }
+        }
+    }
+}
+
+TEST_CASE("KD13 cone: the mollified BSDF integrates to the delta lobe's weight", "[kd13][cone]") {
+    // A smooth conductor and a smooth dielectric (eta 1.5, from outside and inside, and index
+    // matched), evaluated with a cone request: the integral of f |cos wi| over the cone is the
+    // weight the walk's delta sample carries (Fresnel F of wo for reflection, (1 - F) for
+    // refraction, over eta^2 for radiance), for eps from 1e-6 to 0.5 rad. Tolerance: 2e-3 relative
+    // from the quadrature for eps >= 1e-4; below, the float directions' rounding (about 6e-8,
+    // against a cone of radius 1e-6) moves the edge by up to 6%, which averages out over the
+    // cone's rim to within 2% (measured: at most 1.4%, at eps 1e-6). Outside the cone f is 0.
+    const BxdfPtr mirror = makeConductor(Color(0.2f), Color(3.f), Color(1.f));
+    const BxdfPtr glass = makeDielectric(1.5f), matched = makeDielectric(1.f);
+    const Vec3 woOut = glm::normalize(Vec3(0.3f, -0.2f, 0.8f)), woIn = glm::normalize(Vec3(0.1f, 0.25f, -0.9f));
+    for (double eps : {1e-6, 1e-4, 1e-2, 0.1, 0.5}) {
+        const double tol = eps >= 1e-4 ? 2e-3 : 2e-2;
+        for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
+            const BsdfContext ctx = coneContext(mode, float(eps));
+            INFO("eps " << eps << " mode " << int(mode));
+            {  // conductor: weight F(cos theta_o)
+                const double F = fresnelConductor(woOut.z, 0.2f, 3.f);
+                CHECK(std::abs(coneIntegral(*mirror, woOut, ctx, idealReflection(woOut), eps) / F - 1.0) < tol);
+            }
+            for (const Vec3& wo : {woOut, woIn}) {
+                const float etaRel = wo.z > 0.f ? 1.5f : 1.f / 1.5f;
+                const double F = fresnelDielectric(std::abs(wo.z), etaRel);
+                INFO("wo.z " << wo.z << " F " << F);
+                CHECK(std::abs(coneIntegral(*glass, wo, ctx, idealReflection(wo), eps) / F - 1.0) < tol);
+                DVec3 t;
+                REQUIRE(idealRefraction(wo, 1.5f, t));
+                const double T = (1.0 - F) / (mode == TransportMode::Radiance ? double(etaRel) * etaRel : 1.0);
+                CHECK(std::abs(coneIntegral(*glass, wo, ctx, t, eps) / T - 1.0) < tol);
+            }
+            CHECK(std::abs(coneIntegral(*matched, woOut, ctx, DVec3(-Vec3(woOut)), eps) - 1.0) < tol);
+            // Outside the cone (twice eps off the ideal direction) and on the wrong lobe: 0.
+            const DVec3 r = idealReflection(woOut);
+            const DVec3 off = glm::normalize(r + 2.0 * eps * glm::normalize(glm::cross(r, DVec3(0, 0, 1))));
+            CHECK(mirror->eval(woOut, Vec3(off), ctx).f == Color(0.f));
+            CHECK(glass->eval(woOut, Vec3(r), ctx).f.x > 0.f);
+            CHECK(glass->eval(woOut, Vec3(off), ctx).f == Color(0.f));
+        }
+    }
+    // Without the cone the smooth BSDFs stay deltas; a rough lobe ignores the cone.
+    CHECK(mirror->eval(woOut, Vec3(idealReflection(woOut)), kRadianceContext).f == Color(0.f));
+    CHECK(mirror->isDelta());
+    CHECK_FALSE(mirror->deltaUnder(coneContext(TransportMode::Radiance, 0.01f)));
+    const BxdfPtr rough = makeRoughConductor(MicrofacetType::GGX, 0.3f, 0.3f, Color(0.2f), Color(3.f), Color(1.f));
+    const Vec3 wi = Vec3(idealReflection(woOut));
+    CHECK(rough->eval(woOut, wi, coneContext(TransportMode::Radiance, 0.01f)).f ==
+          rough->eval(woOut, wi, kRadianceContext).f);
+}
+
+TEST_CASE("KD13 mollifies only paths no technique of the integrator samples, by the maximum-distance heuristic", "[kd13][select]") {
+    // Paths on a line (x_0 the light at the origin, the camera at z = 5), so every length is known.
+    // For each split into a technique (s light vertices), select() answers: unregularised (a path
+    // some technique samples: only techniques with two non-delta ends contribute), or the one
+    // chosen estimator (the fewest mollified vertices, then the longest connection) alone.
+    const BxdfPtr glass = makeDielectric(1.5f), diffuse = makeDiffuse(Color(0.5f));
+    Light point, area;
+    point.type = LightType::Point;
+    area.type = LightType::Area;
+    auto path = [&](const Light& l, std::vector<std::pair<float, const Bxdf*>> middle) {
+        HandPath h;
+        h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &l);
+        for (auto [zpos, b] : middle) h.add(VertexKind::Surface, Vec3(0, 0, zpos), b);
+        h.add(VertexKind::Camera, Vec3(0, 0, 5), nullptr);
+        return h;
+    };
+    // The techniques (s) of the integrator that contribute, and the vertices the contributing one
+    // mollifies. (select() is asked by the integrators' techniques only: the emitter hit where
+    // the light can be hit, the connections of their set.)
+    auto contributing = [](HandPath& h, const reg::Kd13& kd, std::vector<int>& mollified) {
+        std::vector<int> out;
+        const int n = int(h.x.size());
+        for (int s = 0; s < n; ++s) {
+            if (s == 0 && !h.x[0].light->isHittable()) continue;
+            if (!allowsTechnique(kd.techniques(), s, n - s)) continue;
+            Technique t = h.technique(kd, s);
+            if (!kd.select(t)) continue;
+            out.push_back(s);
+            mollified.clear();
+            for (int j : t.regularised)
+                if (j >= 0) mollified.push_back(j);
+        }
+        return out;
+    };
+    const reg::Kd13 bpt = kd13For(TechniqueSet::Bidirectional, false), pt = kd13For(TechniqueSet::PathTracer, false),
+                    vcm = kd13For(TechniqueSet::Bidirectional, true);
+    std::vector<int> m;
+    SECTION("L S S E: one vertex beats two, then the longest connection") {
+        // Connections: x0-x1 (mollify x1), x1-x2 (both), x2-x3 (x2: light tracing).
+        HandPath a = path(point, {{1.f, glass.get()}, {1.5f, glass.get()}});  // lengths 1, 0.5, 3.5
+        CHECK(contributing(a, bpt, m) == std::vector<int>{3});
+        CHECK(m == std::vector<int>{2});
+        HandPath b = path(point, {{0.2f, glass.get()}, {4.f, glass.get()}});  // 0.2, 3.8 (two vertices), 1
+        CHECK(contributing(b, bpt, m) == std::vector<int>{3});
+        CHECK(m == std::vector<int>{2});
+        HandPath c = path(point, {{3.f, glass.get()}, {3.5f, glass.get()}});  // 3, 0.5, 1.5
+        CHECK(contributing(c, bpt, m) == std::vector<int>{1});
+        CHECK(m == std::vector<int>{1});
+        // PT has next-event estimation only (s = 1): x0-x1 whatever the lengths.
+        CHECK(contributing(a, pt, m) == std::vector<int>{1});
+        CHECK(m == std::vector<int>{1});
+        // VCM: no non-delta vertex to merge at, so as BPT.
+        CHECK(contributing(a, vcm, m) == std::vector<int>{3});
+        // The cone: eps = arctan(r_N / l) of the chosen connection, at its mollified end only.
+        Technique t = a.technique(bpt, 3);
+        REQUIRE(bpt.select(t));
+        CHECK(t.bound[0] == Approx(std::atan(0.01 / 3.5)).epsilon(1e-5));
+        CHECK(bpt.context(t, End::Light).reg.cone == t.bound[0]);
+        CHECK(bpt.context(t, End::Camera).reg.cone == 0.f);
+    }
+    SECTION("L S D S E: BPT mollifies one vertex, VCM merges at the diffuse vertex instead") {
+        HandPath h = path(point, {{0.5f, glass.get()}, {2.f, diffuse.get()}, {2.5f, glass.get()}});
+        // Lengths 0.5, 1.5, 0.5, 2.5: light tracing from x3, the longest with one mollified vertex.
+        CHECK(contributing(h, bpt, m) == std::vector<int>{4});
+        CHECK(m == std::vector<int>{3});
+        CHECK(contributing(h, vcm, m).empty());  // (no connection samples it: the merge at x2 does)
+    }
+    SECTION("paths some technique samples are left alone") {
+        // An area light behind glass: the camera walk hits it (s = 0).
+        HandPath h = path(area, {{1.f, glass.get()}});
+        CHECK(contributing(h, bpt, m) == std::vector<int>{0});
+        CHECK(m.empty());
+        // A diffuse vertex next to the light, seen through glass: next-event estimation at x1
+        // samples it (PT and BPT); the connections at the glass give nothing.
+        HandPath d = path(point, {{1.f, diffuse.get()}, {2.f, glass.get()}});
+        for (const reg::Kd13* kd : {&pt, &bpt}) {
+            CHECK(contributing(d, *kd, m) == std::vector<int>{1});
+            CHECK(m.empty());
+        }
+        // Light tracing alone (the LT integrator) has x2 - camera only: mollified at the glass.
+        const reg::Kd13 lt = kd13For(TechniqueSet::LightTracer, false);
+        CHECK(contributing(d, lt, m) == std::vector<int>{3});
+        CHECK(m == std::vector<int>{2});
+    }
+}
