@@ -85,7 +85,12 @@ public:
                 // fields connect does not read are dropped by the compiler, the rest stay in registers.
                 PathVertex y;
                 Connection conn;
-                if (sampleLightVertex(scene, reg_, v.p, rng, y) &&
+                // At a vertex only the regulariser lets a connection end at (a smooth one), the
+                // light sample draws from a stream of its own: the walk's stream, and so every
+                // unregularised contribution, is the same as without a regulariser.
+                Rng side;
+                Rng& lightRng = v.connectible() ? rng : (side = rng.split(uint64_t(t)), side);
+                if (sampleLightVertex(scene, reg_, v.p, lightRng, y) &&
                     connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit)) {
                     const Color weighted = conn.contribution * (strategy_ == Strategy::Mis
                                                                     ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer)

@@ -173,7 +173,10 @@ private:
                 // s = 1: next-event estimation with a fresh light sample.
                 PathVertex lv;
                 Connection c;
-                if (t <= maxDepth_ && sampleLightVertex(scene, reg_, v.p, rng, lv) &&
+                // (At a vertex only the regulariser makes connectible, from a stream of its own, as PT.)
+                Rng side;
+                Rng& lightRng = v.connectible() ? rng : (side = rng.split(uint64_t(t)), side);
+                if (t <= maxDepth_ && sampleLightVertex(scene, reg_, v.p, lightRng, lv) &&
                     connect(scene, reg_, &lv, 1, z, t, c, stats))
                     record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel, c.pdfs.regularised,
                            strategies_ && singularPath(&lv, 1, z, t), stats);

@@ -4,6 +4,7 @@
 #pragma once
 #include <array>
 #include <vector>
+#include "core/image.h"
 #include "integrators/transport/path_templates.h"
 #include "scene_builders.h"
 
@@ -45,6 +46,17 @@ void forEachConnection(const Scene& scene, const Reg& jg, const PathVertex* y, i
             Connection c;
             if (connect(scene, jg, y, s, zz, t, c, ws)) fn(s, t, zz, c);
         }
+}
+
+// The mean over channels and pixels of the crop (x0, y0, cw, ch) of an image of width w.
+inline double cropMean(const Image& img, int w, int x0, int y0, int cw, int ch) {
+    double sum = 0.0;
+    for (int yy = y0; yy < y0 + ch; ++yy)
+        for (int xx = x0; xx < x0 + cw; ++xx) {
+            const Color c = img.pixels[size_t(yy) * w + xx];
+            sum += (double(c.x) + c.y + c.z) / 3.0;
+        }
+    return sum / (cw * ch);
 }
 
 // A path built by hand (x_0 the light end), split into the records of any technique as the walks
