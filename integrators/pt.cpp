@@ -1,135 +1,13 @@
-// Unidirectional path tracer with next-event estimation and MIS: the camera walk of the shared
-// path-vertex store, evaluated with the two techniques s = 0 (emitter hit) and s = 1 (NEE).
-// A class template on the regulariser policy (integrators/transport/regularizer.h), which the
-// loop passes to the walk, emitterHit and connect without knowing which one runs.
-#include <memory>
-#include <stdexcept>
-#include "integrators/integrator.h"
-#include "integrators/strategy_images.h"
+// The path tracer (integrators/path_tracer.h) without a regulariser and with JG19.
+#include "integrators/path_tracer.h"
 
 namespace lt {
-
-namespace {
-
-template <class Reg>
-class PathTracer final : public Integrator {
-public:
-    PathTracer(const RenderSettings& s, const Reg& reg) : settings_(s), reg_(reg) {
-        if (s.ptStrategy == "mis") strategy_ = Strategy::Mis;
-        else if (s.ptStrategy == "nee") strategy_ = Strategy::Nee;
-        else if (s.ptStrategy == "bsdf") strategy_ = Strategy::Bsdf;
-        else throw std::invalid_argument("unknown PT strategy '" + s.ptStrategy + "' (supported: mis, nee, bsdf)");
-    }
-    std::string name() const override { return "pt"; }
-    void beginPass(const Scene& scene, Film&, uint32_t pass, WalkStats&) override {
-        if (pass == 0 && !settings_.strategyImages.empty())
-            strategies_ = std::make_unique<StrategyImages>(scene.camera().width(), scene.camera().height(),
-                                                           maxDepthOf(settings_));
-        // The techniques a regulariser's choice may count on: next-event estimation's connection
-        // (none when only BSDF sampling runs).
-        const MisConfig cfg{strategy_ == Strategy::Bsdf ? TechniqueSet::None : TechniqueSet::PathTracer};
-        reg_.beginIteration(uint64_t(pass) + 1, scene, cfg);
-    }
-    double regularisationTau() const override { return regularisationTauOf(reg_); }
-    void finish(const Scene&, uint64_t passes) override {
-        if (strategies_) strategies_->write(settings_.strategyImages, passes);
-    }
-
-    void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
-                    WalkStats& stats) const override {
-        // Camera subpath: the camera plus at most max_depth surface vertices.
-        const int maxDepth = maxDepthOf(settings_);
-        // Work records made once per tile (not per sample): the walk's vertices and the emitter hits'
-        // pdfs (written before they are read).
-        std::array<PathVertex, kMaxPathVertices> z;
-        PathPdfs pdfs;
-        for (int y = y0; y < y1; ++y)
-            for (int x = x0; x < x1; ++x) {
-                uint32_t pixel = uint32_t(y) * film.width() + x;
-                Rng rng = Rng::forSample(settings_.seed, pixel, pass);
-                Vec2 raster = Vec2(float(x), float(y)) + film.samplePixelOffset(rng.uniform2());
-                Color L = radiance(scene, raster, pixel, rng, maxDepth, z.data(), pdfs, stats);
-                film.addSample(x, y, L);
-                film.addSampleCount(x, y, 1);
-            }
-    }
-
-    // Flattened: sampleLightVertex, connect and the MIS weight (integrators/transport/path_inline.h)
-    // are compiled into this loop, specialised for s = 1, readLimit = 0 and its known ends (ConnectEnds).
-    // Each of the three measured alone against its plain form (PT, cornell-box and glass-sphere box;
-    // paired whole-process runs, 1 thread, A/B medians): readLimit 0.94 of the time (every pair
-    // faster) and -6.4% / -4.7% instructions; ConnectEnds and flatten 0.95-1.00 and 0.97-1.00 of the
-    // time (within the shared machine's noise) and -2.2% / -1.6%, -2.4% / -1.7% instructions. All kept:
-    // none touches the regulariser's hooks, and without the last two PT would run ~2% more
-    // instructions than before the seam.
-    [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, uint32_t pixel, Rng& rng, int maxDepth,
-                                    PathVertex* z, PathPdfs& pdfs, WalkStats& stats) const {
-        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, rrDepthOf(settings_), z, stats, WalkPdfs::EmitterHits);
-        Color L(0.f);
-        const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
-        for (int t = 2; t <= nz; ++t) {
-            const PathVertex& v = z[t - 1];
-            // s = 0: the walk hit an emitter (t - 1 segments).
-            bool neeImpossible = t == 2 || !reg_.connectible(z[t - 2]);
-            if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
-                Color c = emitterHit(scene, reg_, z, t, pdfs, readLimit);
-                if (!isBlack(c)) {
-                    const Color weighted =
-                        c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
-                    record(L, weighted, 0, t, pixel, false, false, stats);
-                }
-            }
-            // s = 1: next-event estimation (t segments).
-            if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && reg_.connectible(v)) {
-                // Locals no call sees (the chain is inline): their default initialisation and the
-                // fields connect does not read are dropped by the compiler, the rest stay in registers.
-                PathVertex y;
-                Connection conn;
-                // At a vertex only the regulariser lets a connection end at (a smooth one), the
-                // light sample draws from a stream of its own: the walk's stream, and so every
-                // unregularised contribution, is the same as without a regulariser.
-                Rng side;
-                Rng& lightRng = v.connectible() ? rng : (side = rng.split(uint64_t(t)), side);
-                if (sampleLightVertex(scene, reg_, v.p, lightRng, y) &&
-                    connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit)) {
-                    const Color weighted = conn.contribution * (strategy_ == Strategy::Mis
-                                                                    ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer)
-                                                                    : 1.f);
-                    record(L, weighted, 1, t, pixel, conn.pdfs.regularised, strategies_ && singularPath(&y, 1, z, t),
-                           stats);
-                }
-            }
-        }
-        return L;
-    }
-
-private:
-    // A weighted contribution of technique (s, t), with whether its own technique was regularised
-    // and whether no unregularised technique could produce it (singularPath; with strategy images).
-    void record(Color& L, const Color& c, int s, int t, uint32_t pixel, bool regularised, bool singular,
-                WalkStats& stats) const {
-        L += c;
-        if (strategies_) strategies_->add(false, s, t, pixel, c, regularised, singular);
-        if constexpr (Reg::kPerTechnique) stats.countContribution(c, regularised);
-    }
-
-    enum class Strategy { Mis, Nee, Bsdf };
-    RenderSettings settings_;
-    Reg reg_;
-    Strategy strategy_ = Strategy::Mis;
-    std::unique_ptr<StrategyImages> strategies_;  // --strategy-images
-};
-
-}  // namespace
 
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::None& reg) {
     return std::make_unique<PathTracer<reg::None>>(s, reg);
 }
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Jg19& reg) {
     return std::make_unique<PathTracer<reg::Jg19>>(s, reg);
-}
-std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Kd13& reg) {
-    return std::make_unique<PathTracer<reg::Kd13>>(s, reg);
 }
 
 }  // namespace lt
