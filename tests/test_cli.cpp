@@ -90,7 +90,11 @@ TEST_CASE("bad command lines exit with 1 and name the problem", "[cli]") {
                           Case{"--integrator nope", "nope"}, Case{"--no-such-flag", "no-such-flag"},
                           Case{"-D novalue", "name=value"}, Case{"--max-depth 1000", "max-depth"},
                           Case{"--reg jg19 --reg-quality off --reg-diffusion on", "diffusion heuristic"},
-                          Case{"--reg jg19 --reg-diffusion maybe", "reg-diffusion"}}) {
+                          Case{"--reg jg19 --reg-diffusion maybe", "reg-diffusion"},
+                          Case{"--reg kd13 --reg-lambda 0.6", "reg-lambda"}, Case{"--reg kd13 --reg-r0 -1", "reg-r0"},
+                          Case{"--reg kd13 --reg-tau 50", "applies to --reg jg19 only"},
+                          Case{"--reg jg19 --reg-r0 0.1", "applies to --reg kd13 only"},
+                          Case{"--reg kd13 --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"}}) {
         Run r = run(scene + c.args);
         INFO(c.args << "\n" << r.output);
         CHECK(r.code == 1);

@@ -545,8 +545,13 @@ TEST_CASE("configurations: --reg and its knobs reach the settings, bad values ar
     CHECK(s.regTau == 500.0);
     CHECK(s.regQuality);
     CHECK(s.regDiffusion == false);
+    s = makeSettings(desc, parseConfig("bpt --reg kd13 --reg-r0 0.02 --reg-lambda 0"), 1, 3);
+    CHECK(s.regularizer == "kd13");
+    CHECK(s.regR0 == 0.02);
+    CHECK(s.regLambda == 0.0);
     for (const char* bad : {"pt --reg kd99", "pt --reg-tau 0.1", "pt --reg-tau x", "pt --reg-schedule sometimes",
-                            "pt --reg-mis maybe", "pt --reg-quality yes", "pt --reg-diffusion yes"}) {
+                            "pt --reg-mis maybe", "pt --reg-quality yes", "pt --reg-diffusion yes", "pt --reg-r0 0",
+                            "pt --reg-lambda 0.5", "pt --reg-lambda -0.1"}) {
         INFO(bad);
         CHECK_THROWS_AS(parseConfig(bad), std::invalid_argument);
     }
