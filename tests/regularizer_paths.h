@@ -3,8 +3,10 @@
 // walked subpaths.
 #pragma once
 #include <array>
+#include <catch2/catch.hpp>
 #include <vector>
 #include "core/image.h"
+#include "integrators/integrator.h"
 #include "integrators/transport/path_templates.h"
 #include "scene_builders.h"
 
@@ -46,6 +48,44 @@ void forEachConnection(const Scene& scene, const Reg& jg, const PathVertex* y, i
             Connection c;
             if (connect(scene, jg, y, s, zz, t, c, ws)) fn(s, t, zz, c);
         }
+}
+
+// Render settings of the regularisers' render tests: 2 threads, seed 5, max depth 6.
+inline RenderSettings settingsFor(const std::string& integrator, int spp) {
+    RenderSettings s;
+    s.integrator = integrator;
+    s.spp = spp;
+    s.threads = 2;
+    s.seed = 5;
+    s.maxDepth = 6;
+    s.quiet = true;
+    return s;
+}
+
+// The number of pixels in which two images of the same size differ (bit for bit).
+inline size_t differingPixels(const Image& a, const Image& b) {
+    size_t differ = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) differ += !(a.pixels[i] == b.pixels[i]);
+    return differ;
+}
+
+// PT, BPT and VCM (3 spp) with the regulariser `setReg` sets on the settings, against without
+// one: the images must not differ by a single bit, nothing may count as regularised, and the
+// renders must have contributions to compare (Catch checks); check(stats) adds the caller's.
+template <class SetReg, class Check>
+void checkBitIdenticalToNone(const Scene& scene, SetReg setReg, Check check) {
+    for (const char* integrator : {"pt", "bpt", "vcm"}) {
+        INFO(integrator);
+        RenderSettings plain = settingsFor(integrator, 3), reg = plain;
+        setReg(reg);
+        RenderStats a, b;
+        const Image ia = renderImage(scene, plain, a), ib = renderImage(scene, reg, b);
+        REQUIRE(ia.pixels.size() == ib.pixels.size());
+        CHECK(differingPixels(ia, ib) == 0);
+        CHECK(b.regularisedContributions == 0);
+        CHECK(b.contributions > 1000);
+        check(b);
+    }
 }
 
 // The mean over channels and pixels of the crop (x0, y0, cw, ch) of an image of width w.
