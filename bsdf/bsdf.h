@@ -58,10 +58,11 @@ struct Roughness {
 //             alpha' = max(alpha, alpha_hat(tau)) per axis, alpha_hat = alphaForBound
 //             (roughness_bound.h) of its distribution, masking, and reflection or transmission
 //             with its eta (eval: the lobe of the pair; sample: see the dielectric);
-//   cone      half-angle eps in radians of KD13's cone mollifier (Eq. 5): eval replaces each
-//             delta lobe that the rest of the request leaves a delta by its weight spread
-//             uniformly over the cone of half-angle eps around the ideal direction
-//             (bsdf/cone_mollifier.h); the densities stay 0 (the walks never sample it).
+//   cone      half-angle eps in radians of KD13's cone mollifier (Eq. 5): a smooth conductor
+//             or dielectric (whatever minAlpha and tau say) replaces each delta lobe by its
+//             weight spread uniformly over the cone of half-angle eps around the ideal direction
+//             (bsdf/cone_mollifier.h); the densities stay 0 (the walks never sample it), and
+//             valueBound is 1 / Omega(eps). With tau too: JG19 with --reg-specular cone.
 // A smooth (delta) conductor or dielectric whose resolved alpha reaches kMinAlpha becomes a rough
 // GGX/Smith lobe. Diffuse and rough lobes ignore the cone, diffuse lobes the whole request.
 struct RegularizationRequest {

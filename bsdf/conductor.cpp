@@ -20,8 +20,9 @@ public:
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
+        if (!rough_ && ctx.reg.cone > 0.f) return evalCone(wo, wi, ctx.reg.cone);  // (whatever else is asked)
         const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
-        if (a.delta) return ctx.reg.cone > 0.f ? evalCone(wo, wi, ctx.reg.cone) : BsdfEval{};
+        if (a.delta) return BsdfEval{};
         return evalRough(lobe_.microfacet(a), wo, wi);
     }
 
@@ -59,9 +60,10 @@ public:
 
     uint32_t flags() const override { return rough_ ? (kReflection | kGlossy) : (kReflection | kDelta); }
     bool deltaUnder(const BsdfContext& ctx) const override {
-        return !(ctx.reg.cone > 0.f) && lobe_.resolve(ctx.reg, false, 1.f).delta;
+        return !(!rough_ && ctx.reg.cone > 0.f) && lobe_.resolve(ctx.reg, false, 1.f).delta;
     }
     float valueBound(const BsdfContext& ctx) const override {
+        if (!rough_ && ctx.reg.cone > 0.f) return 1.f / coneSolidAngle(ctx.reg.cone);  // the cone's 1 / Omega
         const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
         if (a.delta) return kInf;
         // (Microfacet clamps each alpha to kMinAlpha; the smaller axis bounds an anisotropic lobe.)

@@ -36,6 +36,15 @@ struct ConeMollifier {
     }
 };
 
+// The half-angle of the cone whose value 1 / Omega is `bound` (JG19 Fig. 4: rho_cone = tau, one
+// knob for microfacet and smooth lobes): sin^2(eps/2) = 1 / (4 pi bound); pi for a bound at or below
+// 1/(4 pi) (the whole sphere), 0 for +inf (no cone).
+inline float coneForBound(float bound) {
+    if (!(bound > 0.f)) return kPi;
+    const double s2 = 1.0 / (4.0 * double(kPi) * double(bound));
+    return s2 >= 1.0 ? kPi : float(2.0 * std::asin(std::sqrt(s2)));
+}
+
 // The ideal directions in double (local frame, wo unit, normal +z): the mirror direction, and the
 // refracted one through relative IOR eta = n_lower / n_upper (wo on either side; false on total
 // internal reflection).

@@ -29,7 +29,7 @@ public:
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         if (wo.z == 0.f || wi.z == 0.f) return BsdfEval{};
-        if (ctx.reg.cone > 0.f && (eta_ == 1.f || lobe_.resolve(ctx.reg, true, eta_).delta))
+        if (ctx.reg.cone > 0.f && (eta_ == 1.f || !rough_))  // (a smooth interface: whatever else is asked)
             return evalCone(wo, wi, ctx.reg.cone, ctx.mode);
         if (eta_ == 1.f) return BsdfEval{};
         // The request resolved for the lobe of this pair (reflection or transmission).
@@ -123,13 +123,14 @@ public:
     std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }
     // The transmission bound gives the larger alpha_hat (see sample): rough there first.
     bool deltaUnder(const BsdfContext& ctx) const override {
-        if (ctx.reg.cone > 0.f) return false;  // KD13's cone (evalCone)
+        if (ctx.reg.cone > 0.f && (eta_ == 1.f || !rough_)) return false;  // the cone (evalCone)
         return eta_ == 1.f || lobe_.resolve(ctx.reg, true, eta_).delta;
     }
     // The larger of the reflection and transmission bounds, each with the alphas eval resolves
     // for its lobe. +inf when both are still deltas; a reflection lobe still a delta beside a
     // transmission made rough (a narrow range of tau) is left out, as eval leaves it out.
     float valueBound(const BsdfContext& ctx) const override {
+        if (ctx.reg.cone > 0.f && (eta_ == 1.f || !rough_)) return 1.f / coneSolidAngle(ctx.reg.cone);  // 1 / Omega
         if (eta_ == 1.f) return kInf;
         float bound = -1.f;
         for (bool transmission : {false, true}) {
@@ -145,8 +146,8 @@ private:
     // KD13's cone (bsdf/cone_mollifier.h) around the ideal reflected and refracted directions of
     // wo, each with the weight of its delta sample: specR F, and specT (1 - F) (times 1/eta^2 for
     // radiance), F of the macro normal at wo; an index-matched interface has the straight-through
-    // lobe only. The densities stay 0 (nothing samples it). (Used where the lobes are deltas: a
-    // smooth interface, or one whose request leaves it smooth.)
+    // lobe only. The densities stay 0 (nothing samples it). (Used for a smooth or index-matched
+    // interface, whatever else the request asks: JG19's bound then applies to rough lobes only.)
     BsdfEval evalCone(const Vec3& wo, const Vec3& wi, float eps, TransportMode mode) const {
         BsdfEval e;
         const ConeMollifier cone(eps);

@@ -146,6 +146,10 @@ private:
                 p.failAt("reg_diffusion", "the diffusion heuristic needs reg_quality true (it scales the bound at the "
                                           "vertices the quality heuristic chooses per path)");
         }
+        I.regSpecular = xml::lower(p.getString("reg_specular", "ggx"));
+        if (!isIn(kRegSpecularNames, I.regSpecular))
+            p.failAt("reg_specular", fmt::format("unknown smooth-lobe regularisation '{}' (supported: {})", I.regSpecular,
+                                                 joinList(kRegSpecularNames)));
         if (p.has("reg_r0")) {
             I.regR0 = p.getFloat("reg_r0", -1.f);
             if (!(I.regR0 > 0.0) || !std::isfinite(I.regR0))

@@ -59,6 +59,7 @@ struct CameraDesc {
 inline const std::vector<std::string> kRegularizerNames{"none", "jg19", "kd13"};
 inline const std::vector<std::string> kRegScheduleNames{"consistent", "fixed"};
 inline const std::vector<std::string> kRegMisNames{"regularised", "sampling"};
+inline const std::vector<std::string> kRegSpecularNames{"ggx", "cone"};
 
 struct IntegratorDesc {
     std::string type = "path";  // path | bdpt | vcm | ptracer | ppm
@@ -68,14 +69,16 @@ struct IntegratorDesc {
     float radius = -1.f;        // VCM/PPM initial radius (<=0: derived from scene size)
     float radiusAlpha = 0.75f;
     // Path-space regularisation (integrator parameters regularizer, reg_tau, reg_schedule, reg_mis,
-    // reg_quality, reg_diffusion, reg_r0, reg_lambda; the render CLI's --reg, --reg-tau,
-    // --reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-r0, --reg-lambda override them).
+    // reg_quality, reg_diffusion, reg_specular, reg_r0, reg_lambda; the render CLI's --reg,
+    // --reg-tau, --reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-specular,
+    // --reg-r0, --reg-lambda override them).
     std::string regularizer = "none";    // none | jg19 | kd13
     double regTau = -1.0;                // <= 0: the integrator's default
     std::string regSchedule = "consistent";
     std::string regMis = "regularised";
     bool regQuality = true;              // JG19's sampler quality heuristic (reg_quality)
     std::optional<bool> regDiffusion;    // JG19's diffusion heuristic (reg_diffusion; unset: as regQuality)
+    std::string regSpecular = "ggx";     // JG19's smooth lobes: ggx | cone (reg_specular)
     double regR0 = -1.0;                 // KD13's r_0 (reg_r0; <= 0: the default)
     double regLambda = -1.0;             // KD13's lambda (reg_lambda; < 0: the default)
 };

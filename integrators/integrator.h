@@ -45,6 +45,9 @@ struct RenderSettings {
     // without it (it scales the bound at the vertices the quality heuristic chooses; on with the
     // quality heuristic off is an error).
     std::optional<bool> regDiffusion;
+    // JG19's smooth lobes: "ggx" (rough GGX with alpha_hat, JG19 Sec. 3.2) or "cone" (KD13's cone
+    // with rho_cone = tau', JG19 Fig. 4).
+    std::string regSpecular = "ggx";
     // KD13 (integrators/transport/kd13.h): r_0 (<= 0: 1% of the geometry's bounding radius) and
     // lambda of r_N = r_0 N^-lambda (< 0: 1/6 for one mollified vertex, 1/12 for two).
     double regR0 = -1.0;

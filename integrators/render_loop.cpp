@@ -61,6 +61,10 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         else throw std::invalid_argument(fmt::format("unknown regularisation MIS '{}' (supported: {})", s.regMis,
                                                      fmt::join(kRegMisNames, ", ")));
         j.quality = s.regQuality;
+        if (s.regSpecular == "ggx") j.specular = reg::SpecularMode::Ggx;
+        else if (s.regSpecular == "cone") j.specular = reg::SpecularMode::Cone;
+        else throw std::invalid_argument(fmt::format("unknown smooth-lobe regularisation '{}' (supported: {})",
+                                                     s.regSpecular, fmt::join(kRegSpecularNames, ", ")));
         j.diffusion = regDiffusionOf(s);
         if (j.diffusion && !j.quality)
             throw std::invalid_argument("the JG19 diffusion heuristic (reg_diffusion, --reg-diffusion on) needs the quality "

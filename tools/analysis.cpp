@@ -132,6 +132,8 @@ RunConfig parseConfig(const std::string& spec) {
             c.regQuality = oneOf(spec, opt, val, {"on", "off"}) == "on";
         } else if (opt == "--reg-diffusion") {
             c.regDiffusion = oneOf(spec, opt, val, {"on", "off"}) == "on";
+        } else if (opt == "--reg-specular") {
+            c.regSpecular = oneOf(spec, opt, val, kRegSpecularNames);
         } else if (opt == "--reg-r0") {
             c.regR0 = toDouble(opt, val);
             if (!(*c.regR0 > 0.0) || !std::isfinite(*c.regR0))
@@ -217,12 +219,14 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     s.regMis = c.regMis.value_or(desc.integrator.regMis);
     s.regQuality = c.regQuality.value_or(desc.integrator.regQuality);
     s.regDiffusion = c.regDiffusion ? c.regDiffusion : desc.integrator.regDiffusion;
+    s.regSpecular = c.regSpecular.value_or(desc.integrator.regSpecular);
     s.regR0 = c.regR0.value_or(desc.integrator.regR0);
     s.regLambda = c.regLambda.value_or(desc.integrator.regLambda);
     if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
         throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
                                                     "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --reg, --reg-tau, "
-                                                    "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-r0, --reg-lambda, --label)",
+                                                    "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda, "
+                                                    "--label)",
                                                     c.spec, c.extra.begin()->first));
     return s;
 }

@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
                    "singular.exr) to this directory");
     app.add_option("--pt-strategy", ptStrategy, "PT techniques: mis (default), nee, bsdf")
         ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
-    std::string regularizer, regSchedule, regMis, regQuality, regDiffusion;
+    std::string regularizer, regSchedule, regMis, regQuality, regDiffusion, regSpecular;
     double regTau = -1.0;
     app.add_option("--reg", regularizer,
                    "Path-space regulariser: none (default), jg19 (microfacet roughness bound), kd13 (cone mollifier "
@@ -83,6 +83,11 @@ int main(int argc, char** argv) {
                    "sharper near the camera, blurrier after rough bounces. on (default with --reg-quality on) or off; "
                    "it needs the quality heuristic")
         ->check(CLI::IsMember({"on", "off"}));
+    app.add_option("--reg-specular", regSpecular,
+                   "JG19 smooth metal and glass at a regularised vertex: ggx (default; a rough GGX lobe with "
+                   "alpha_hat(tau')) or cone (KD13's cone mollifier with 1 / Omega = tau', JG19 Fig. 4: keeps the "
+                   "delta's energy)")
+        ->check(CLI::IsMember(kRegSpecularNames));
     double regR0 = -1.0, regLambda = -1.0;
     app.add_option("--reg-r0", regR0,
                    "KD13 initial radius r_0 of the cone at a smooth vertex, eps = arctan(r_N / l) over a connection of "
@@ -153,16 +158,17 @@ int main(int argc, char** argv) {
     settings.regMis = !regMis.empty() ? regMis : desc.integrator.regMis;
     settings.regQuality = !regQuality.empty() ? regQuality == "on" : desc.integrator.regQuality;
     settings.regDiffusion = !regDiffusion.empty() ? std::optional<bool>(regDiffusion == "on") : desc.integrator.regDiffusion;
+    settings.regSpecular = !regSpecular.empty() ? regSpecular : desc.integrator.regSpecular;
     settings.regR0 = regR0 > 0.0 ? regR0 : desc.integrator.regR0;
     settings.regLambda = regLambda >= 0.0 ? regLambda : desc.integrator.regLambda;
     // A knob of another regulariser than the one that runs is a mistake, not a no-op.
     {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
-                              !regDiffusion.empty();
+                              !regDiffusion.empty() || !regSpecular.empty();
         const bool kd13Knob = regR0 > 0.0 || regLambda >= 0.0;
         if ((jg19Knob && settings.regularizer != "jg19") || (kd13Knob && settings.regularizer != "kd13")) {
             fmt::print(stderr, "error: {} applies to --reg {} only (this render: --reg {})\n",
-                       jg19Knob && settings.regularizer != "jg19" ? "--reg-tau/-schedule/-mis/-quality/-diffusion"
+                       jg19Knob && settings.regularizer != "jg19" ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular"
                                                                   : "--reg-r0/--reg-lambda",
                        jg19Knob && settings.regularizer != "jg19" ? "jg19" : "kd13", settings.regularizer);
             return 1;
@@ -247,6 +253,7 @@ int main(int argc, char** argv) {
             j["reg_mis"] = settings.regMis;
             j["reg_quality"] = settings.regQuality;
             j["reg_diffusion"] = regDiffusionOf(settings);
+            j["reg_specular"] = settings.regSpecular;
             j["reg_tau_last"] = stats.tau;
         }
         if (settings.regularizer == "kd13") {

@@ -19,6 +19,7 @@ Jg19::Jg19(const Jg19Settings& settings) : settings_(settings) {
 void Jg19::setIteration(uint64_t n) {
     const double tau = settings_.schedule == Schedule::Consistent ? consistentTau(settings_.tau0, n) : settings_.tau0;
     radiance_.reg.tau = importance_.reg.tau = float(tau);  // (beyond FLT_MAX: +inf, no regularisation)
+    if (cone()) radiance_.reg.cone = importance_.reg.cone = coneForBound(radiance_.reg.tau);  // (5)
     setLimits();
 }
 
@@ -27,6 +28,7 @@ void Jg19::setLimits() {
     const double tau = double(radiance_.reg.tau);
     tauSqExit_ = float(tau * tau * (1.0 - kExitMargin));
     if (diffusion()) loosest_.reg.tau = float(double(radiance_.reg.tau) / Diffusion::kMaxSpread);  // (4)
+    if (cone()) loosest_.reg.cone = coneForBound(loosest_.reg.tau);  // (5)
 }
 
 Diffusion Diffusion::next(double rhoBar, double h, double d) const {
@@ -73,8 +75,10 @@ void Jg19::surfaceBounds(const PathVertex& v, float& plain, float& regularised) 
         return;
     }
     // (4): the ceiling. A rough lobe changes under any bound below its own; a delta one under a
-    // bound that makes it rough at least at kMinAlpha (none: an index-matched dielectric).
-    regularised = v.deltaBsdf ? v.bxdf->smoothestBound() : plain;
+    // bound that makes it rough at least at kMinAlpha (none: an index-matched dielectric), or as a
+    // cone (5) under every finite bound.
+    if (v.deltaBsdf) regularised = cone() ? kInf : v.bxdf->smoothestBound();
+    else regularised = plain;
 }
 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {

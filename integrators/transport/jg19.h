@@ -90,16 +90,28 @@
 //     light walk, which does not know the camera side, those the smallest tau' can change: the
 //     spread is capped at Diffusion::kMaxSpread = 100 rad (ours; a spread of radians is all
 //     directions already), so tau' >= tau / 100 (also what connectible() uses).
+// (5) Smooth lobes as cones (--reg-specular cone, JG19 Fig. 4 and Sec. 3.6 with KD13's mollifier):
+//     every request that carries a bound tau' also carries the cone whose value 1 / Omega is tau'
+//     (coneForBound, bsdf/cone_mollifier.h); a smooth conductor or dielectric takes the cone, a
+//     microfacet lobe the bound. The cone's value bound is tau' itself, so the heuristics of (2)
+//     and (4) read it as they read a rough lobe's (with diffusion a smooth vertex's ceiling is +inf:
+//     every finite tau' changes it, index-matched glass included). Unlike the rough GGX lobe, the
+//     cone keeps the delta's energy (no single-scattering loss).
 #pragma once
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include "bsdf/cone_mollifier.h"
 #include "integrators/transport/path.h"
 
 namespace lt::reg {
 
 enum class Schedule { Consistent, Fixed };
 enum class MisDensities { Regularised, Sampling };
+// How a smooth (delta) conductor or dielectric is regularised: as a rough GGX lobe with
+// alpha_hat(tau') (JG19 Sec. 3.2), or as KD13's cone with the same bound, rho_cone = 1 / Omega =
+// tau' (JG19 Fig. 4, Sec. 3.6: one knob for both).
+enum class SpecularMode { Ggx, Cone };
 
 struct Jg19Settings {
     double tau0 = 30.0;  // > 1 / (2 pi)
@@ -107,6 +119,7 @@ struct Jg19Settings {
     MisDensities mis = MisDensities::Regularised;  // (without the quality heuristic only: (3))
     bool quality = true;                           // the sampler quality heuristic, (2)
     bool diffusion = true;                         // the path diffusion heuristic, (4) (with quality only)
+    SpecularMode specular = SpecularMode::Ggx;     // smooth lobes: rough GGX or KD13's cone (5)
 };
 
 // One step of (4): the spread and footprint arriving at the next vertex, leaving a vertex with
@@ -139,6 +152,7 @@ public:
             if (j >= 0 && tech.regularised[m] == j) {
                 BsdfContext c = end == End::Light ? importance_ : radiance_;
                 c.reg.tau = tech.bound[m];
+                if (cone()) c.reg.cone = coneForBound(tech.bound[m]);
                 return c;
             }
         return BsdfContext(mode);
@@ -243,6 +257,7 @@ private:
         return v.light ? lightBound(*v.light) : 0.f;
     }
     bool diffusion() const { return settings_.quality && settings_.diffusion; }
+    bool cone() const { return settings_.specular == SpecularMode::Cone; }
     bool select(Technique& tech, bool shortcut) const;
     // The O(1) exit of select() for a connection a - b (a = y[s-1], b = z[t-1], both finite; a
     // technique of the running integrator, so its own segment's term is one of Eq. 17's), in
