@@ -141,19 +141,28 @@ int main(int argc, char** argv) {
         return out;
     };
     std::vector<std::string> specs = integratorList.empty() ? availableIntegrators() : splitList(integratorList);
+    // The regulariser columns: each regulariser's name and its options; JG19 also with its smooth
+    // lobes as cones ("jg19cone": --reg jg19 --reg-specular cone).
     std::vector<std::string> regularizers;
+    std::map<std::string, std::string> regularizerArgs;
     for (const std::string& r : regularizerList.empty() ? kRegularizerNames : splitList(regularizerList)) {
         if (std::find(kRegularizerNames.begin(), kRegularizerNames.end(), r) == kRegularizerNames.end()) {
             fmt::print(stderr, "bench: error: --regularizers: unknown regulariser '{}'\n", r);
             return 1;
         }
-        if (r != "none") regularizers.push_back(r);
+        if (r == "none") continue;
+        regularizers.push_back(r);
+        regularizerArgs[r] = "--reg " + r;
+        if (r == "jg19") {
+            regularizers.push_back("jg19cone");
+            regularizerArgs["jg19cone"] = "--reg jg19 --reg-specular cone";
+        }
     }
     // Each regulariser with PT, BPT and VCM where they run unregularised, labelled "pt+jg19".
     for (const std::string& r : regularizers)
         for (const char* integ : {"pt", "bpt", "vcm"})
             if (std::find(specs.begin(), specs.end(), integ) != specs.end())
-                specs.push_back(fmt::format("{} --reg {} --label {}+{}", integ, r, integ, r));
+                specs.push_back(fmt::format("{} {} --label {}+{}", integ, regularizerArgs[r], integ, r));
     std::vector<RunConfig> configs;
     try {
         configs = gatherConfigs(specs, "");
@@ -266,7 +275,8 @@ int main(int argc, char** argv) {
                 "same time and reference (below 1: the regulariser wins; its bias is part of its error). relMSE ratio / "
                 "RMS-RE ratio, and where a scene has singular pixels (above) [the relMSE ratio outside them]. Each "
                 "figure is one timed run: where the machine is shared, the spp of a configuration varies between runs "
-                "(see the tables), and so does its relMSE, about in inverse proportion.\n\n| scene |";
+                "(see the tables), and so does its relMSE, about in inverse proportion. jg19cone: JG19 with its smooth "
+                "lobes as KD13's cones (`--reg jg19 --reg-specular cone`).\n\n| scene |";
         std::string rule = "|---|";
         for (const std::string& r : regularizers)
             for (const char* integ : {"pt", "bpt", "vcm"}) {
