@@ -39,7 +39,7 @@ public:
         return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31));
     }
     // A stream of its own, derived from this one's state and `salt` without advancing it: for
-    // draws that must not shift this stream (a regulariser's extra connections, integrators/pt.cpp).
+    // draws that must not shift this stream (a regulariser's extra connections: detail::lightSampleStream, integrators/transport/path_inline.h).
     Rng split(uint64_t salt) const { return Rng(state_ ^ splitmix64(salt), splitmix64(inc_ ^ salt)); }
     // Uniform in [0, 1).
     float uniform() { return float(next() >> 8) * 0x1.0p-24f; }

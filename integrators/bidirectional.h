@@ -1,6 +1,6 @@
 // Bidirectional integrators on the shared path-vertex store, one class selected by flags
 // (as SmallVCM): bpt = VCM without merging, vcm (Georgiev et al. 2012), lt (light tracing only),
-// ppm (merging only: progressive photon mapping). PT is integrators/pt.cpp: the same camera walk
+// ppm (merging only: progressive photon mapping). PT is integrators/path_tracer.h: the same camera walk
 // with only s = 0 and s = 1.
 //
 // One iteration (pass): (1) W x H light subpaths into the flat LightPathStore, each light vertex
@@ -13,7 +13,6 @@
 #pragma once
 #include <tbb/parallel_for.h>
 #include <atomic>
-#include <optional>
 #include <fmt/core.h>
 #include <stdexcept>
 #include "integrators/transport/light_paths.h"
@@ -178,11 +177,9 @@ private:
                 // s = 1: next-event estimation with a fresh light sample.
                 PathVertex lv;
                 Connection c;
-                // (At a vertex only the regulariser makes connectible, from a stream of its own, as PT.)
-                // (One call site: with two, GCC stops inlining the light sample, +1% instructions.)
-                std::optional<Rng> side;
-                if (!v.connectible()) side.emplace(rng.split(uint64_t(t)));
-                if (t <= maxDepth_ && sampleLightVertex(scene, reg_, v.p, side ? *side : rng, lv) &&
+                std::optional<Rng> side;  // (detail::lightSampleStream)
+                if (t <= maxDepth_ &&
+                    sampleLightVertex(scene, reg_, v.p, detail::lightSampleStream(v, t, rng, side), lv) &&
                     connect(scene, reg_, &lv, 1, z, t, c, stats))
                     record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel, c.pdfs.regularised,
                            strategies_ && singularPath(&lv, 1, z, t), stats);

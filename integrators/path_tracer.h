@@ -7,7 +7,6 @@
 // instantiation in the same unit, BPT and VCM ran 1% more instructions.)
 #pragma once
 #include <memory>
-#include <optional>
 #include <stdexcept>
 #include "integrators/integrator.h"
 #include "integrators/strategy_images.h"
@@ -90,12 +89,8 @@ public:
                 // fields connect does not read are dropped by the compiler, the rest stay in registers.
                 PathVertex y;
                 Connection conn;
-                // At a vertex only the regulariser lets a connection end at (a smooth one), the
-                // light sample draws from a stream of its own: the walk's stream, and so every
-                // unregularised contribution, is the same as without a regulariser.
-                std::optional<Rng> side;
-                if (!v.connectible()) side.emplace(rng.split(uint64_t(t)));
-                if (sampleLightVertex(scene, reg_, v.p, side ? *side : rng, y) &&
+                std::optional<Rng> side;  // (detail::lightSampleStream)
+                if (sampleLightVertex(scene, reg_, v.p, detail::lightSampleStream(v, t, rng, side), y) &&
                     connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit)) {
                     const Color weighted = conn.contribution * (strategy_ == Strategy::Mis
                                                                     ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer)

@@ -166,11 +166,11 @@ int main(int argc, char** argv) {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
                               !regDiffusion.empty() || !regSpecular.empty();
         const bool kd13Knob = regR0 > 0.0 || regLambda >= 0.0;
-        if ((jg19Knob && settings.regularizer != "jg19") || (kd13Knob && settings.regularizer != "kd13")) {
+        const bool jg19Misplaced = jg19Knob && settings.regularizer != "jg19";
+        if (jg19Misplaced || (kd13Knob && settings.regularizer != "kd13")) {
             fmt::print(stderr, "error: {} applies to --reg {} only (this render: --reg {})\n",
-                       jg19Knob && settings.regularizer != "jg19" ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular"
-                                                                  : "--reg-r0/--reg-lambda",
-                       jg19Knob && settings.regularizer != "jg19" ? "jg19" : "kd13", settings.regularizer);
+                       jg19Misplaced ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular" : "--reg-r0/--reg-lambda",
+                       jg19Misplaced ? "jg19" : "kd13", settings.regularizer);
             return 1;
         }
     }

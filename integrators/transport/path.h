@@ -51,6 +51,7 @@
 // Lambert bounce over c_v is at most 1: a throughput never grows.
 #pragma once
 #include <array>
+#include <optional>
 #include <vector>
 #include "bsdf/surface_bsdf.h"
 #include "core/rng.h"

@@ -1,7 +1,7 @@
 // Inline definitions of the per-sample routines of path.h that the path tracer calls per camera
 // vertex (NEE: sampleLightVertex, connect, the pdf gathers, the path tracer's MIS weight).
 // In a header so that the compiler specialises them per call site: at the path tracer's call
-// (integrators/pt.cpp) s = 1, readLimit = 0 and the light endpoint are known, and the light
+// (integrators/path_tracer.h) s = 1, readLimit = 0 and the light endpoint are known, and the light
 // sample goes straight into the vertex. Included at the end of path.h.
 #pragma once
 
@@ -103,6 +103,16 @@ void techniqueDensities(const Reg& reg, const Technique& tech, PathPdfs& pdfs, b
     pdfs.regularised = false;
     if constexpr (Reg::kPerTechnique)
         if (perTechnique) reg.densities(tech, pdfs);
+}
+
+// The stream the light sample of a connection at camera vertex v (index t of its walk) draws
+// from: the walk's own where v is connectible without a regulariser; where only the regulariser
+// makes it connectible (a smooth vertex), a stream split from it (Rng::split, held in `side`), so
+// that the walk's numbers, and so every unregularised contribution, are as without a regulariser.
+inline Rng& lightSampleStream(const PathVertex& v, int t, Rng& walk, std::optional<Rng>& side) {
+    if (v.connectible()) return walk;
+    side.emplace(walk.split(uint64_t(t)));
+    return *side;
 }
 
 // Value a light endpoint sends towards direction w (radiance, intensity or irradiance).
