@@ -116,6 +116,16 @@ struct HandPath {
         v.kind = kind;
         x.push_back(v);
     }
+    // A path on the z axis: `light` at the origin, surfaces at (0, 0, z) (normals +z), the camera at
+    // (0, 0, cameraZ), so every length is known.
+    static HandPath onAxis(const Light& light, const std::vector<std::pair<float, const Bxdf*>>& surfaces,
+                           float cameraZ = 5.f) {
+        HandPath h;
+        h.add(VertexKind::Light, Vec3(0.f), nullptr, &light);
+        for (const auto& [zpos, b] : surfaces) h.add(VertexKind::Surface, Vec3(0.f, 0.f, zpos), b);
+        h.add(VertexKind::Camera, Vec3(0.f, 0.f, cameraZ), nullptr);
+        return h;
+    }
     // The technique with s light vertices (s = 0: the emitter hit, x_0 on the light's surface).
     template <class Reg>
     Technique technique(const Reg& jg, int s) {

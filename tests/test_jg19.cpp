@@ -440,11 +440,7 @@ TEST_CASE("JG19 quality heuristic: q (Eq. 17) and the regularised vertex equal h
     };
 
     SECTION("point light in glass, L S D E: BPT samples it (light tracing), PT regularises the glass") {
-        HandPath h;
-        h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &point);
-        h.add(VertexKind::Surface, Vec3(0, 0, 1), glass.get());
-        h.add(VertexKind::Surface, Vec3(0, 0, 4.9f), diffuse.get());
-        h.add(VertexKind::Camera, Vec3(0, 0, 5), nullptr);
+        HandPath h = HandPath::onAxis(point, {{1.f, glass.get()}, {4.9f, diffuse.get()}});
         // BPT: the only finite term is light tracing's, D-E: rho_D c (5 / 0.1)^2 (~ 760: the
         // diffuse vertex close to the camera makes light tracing a poor sampler). Under tau ~ 27
         // the glass's bound is <= tau, and S-D's term, <= tau rho_D (5 / 3.9)^2 ~ 7, is the smallest.
@@ -475,11 +471,7 @@ TEST_CASE("JG19 quality heuristic: q (Eq. 17) and the regularised vertex equal h
         CHECK(nee.regularised[1] == -1);
     }
     SECTION("point light seen through glass, L S S E: VCM merges at a smooth vertex made rough") {
-        HandPath h;
-        h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &point);
-        h.add(VertexKind::Surface, Vec3(0, 0, 0.01f), glass.get());
-        h.add(VertexKind::Surface, Vec3(0, 0, 3), glass.get());
-        h.add(VertexKind::Camera, Vec3(0, 0, 3.01f), nullptr);
+        HandPath h = HandPath::onAxis(point, {{0.01f, glass.get()}, {3.f, glass.get()}}, 3.01f);
         // Every plain term is infinite (both glass vertices are deltas): q = inf, something is
         // regularised. Bounded terms (d_path = 3.01, glass bounds ~tau = 30): NEE (1 / 4 pi) tau
         // (3.01 / 0.01)^2 ~ 2e5, light tracing c tau 301^2 ~ 5e6, S-S tau^2 (3.01 / 2.99)^2 ~ 912,
@@ -888,12 +880,8 @@ TEST_CASE("JG19 diffusion heuristic: spreads along the camera walk and the bound
     const BxdfPtr diffuse = makeDiffuse(Color(0.5f)), glass = makeDielectric(1.5f);
     Light point;
     point.type = LightType::Point;
-    HandPath h;
-    h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &point);
-    h.add(VertexKind::Surface, Vec3(0, 0, 1), glass.get());
-    h.x.back().curvature = 2.f;
-    h.add(VertexKind::Surface, Vec3(0, 0, 4.9f), diffuse.get());
-    h.add(VertexKind::Camera, Vec3(0, 0, 5), nullptr);
+    HandPath h = HandPath::onAxis(point, {{1.f, glass.get()}, {4.9f, diffuse.get()}});
+    h.x[1].curvature = 2.f;
     const double a = 1.0 / std::sqrt(2.0 * std::numbers::pi * camBound);
     const double dD = 5.0 - double(4.9f), dS = double(4.9f) - 1.0;
     const double sigmaS = a + 1.0 / std::sqrt(2.0 * std::numbers::pi * 0.5 / std::numbers::pi), footS = a * dD + sigmaS * dS;
@@ -938,14 +926,7 @@ TEST_CASE("singularPath: the paths no unregularised technique can produce", "[jg
     };
     const Light point = light(LightType::Point), spot = light(LightType::Spot), sun = light(LightType::Directional),
                 area = light(LightType::Area);
-    auto path = [&](const Light& l, const Bxdf* middle) {
-        HandPath h;
-        h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &l);
-        h.add(VertexKind::Surface, Vec3(0, 0, 1), glass.get());
-        h.add(VertexKind::Surface, Vec3(0, 0, 2), middle);
-        h.add(VertexKind::Camera, Vec3(0, 0, 5), nullptr);
-        return h;
-    };
+    auto path = [&](const Light& l, const Bxdf* middle) { return HandPath::onAxis(l, {{1.f, glass.get()}, {2.f, middle}}); };
     for (const Light* l : {&point, &spot, &sun, &area})
         for (const Bxdf* middle : {glass.get(), diffuse.get(), rough.get()}) {
             HandPath h = path(*l, middle);

@@ -156,13 +156,6 @@ TEST_CASE("KD13 mollifies only paths no technique of the integrator samples, by 
     Light point, area;
     point.type = LightType::Point;
     area.type = LightType::Area;
-    auto path = [&](const Light& l, std::vector<std::pair<float, const Bxdf*>> middle) {
-        HandPath h;
-        h.add(VertexKind::Light, Vec3(0, 0, 0), nullptr, &l);
-        for (auto [zpos, b] : middle) h.add(VertexKind::Surface, Vec3(0, 0, zpos), b);
-        h.add(VertexKind::Camera, Vec3(0, 0, 5), nullptr);
-        return h;
-    };
     // The techniques (s) of the integrator that contribute, and the vertices the contributing one
     // mollifies. (select() is asked by the integrators' techniques only: the emitter hit where
     // the light can be hit, the connections of their set.)
@@ -186,13 +179,13 @@ TEST_CASE("KD13 mollifies only paths no technique of the integrator samples, by 
     std::vector<int> m;
     SECTION("L S S E: one vertex beats two, then the longest connection") {
         // Connections: x0-x1 (mollify x1), x1-x2 (both), x2-x3 (x2: light tracing).
-        HandPath a = path(point, {{1.f, glass.get()}, {1.5f, glass.get()}});  // lengths 1, 0.5, 3.5
+        HandPath a = HandPath::onAxis(point, {{1.f, glass.get()}, {1.5f, glass.get()}});  // lengths 1, 0.5, 3.5
         CHECK(contributing(a, bpt, m) == std::vector<int>{3});
         CHECK(m == std::vector<int>{2});
-        HandPath b = path(point, {{0.2f, glass.get()}, {4.f, glass.get()}});  // 0.2, 3.8 (two vertices), 1
+        HandPath b = HandPath::onAxis(point, {{0.2f, glass.get()}, {4.f, glass.get()}});  // 0.2, 3.8 (two vertices), 1
         CHECK(contributing(b, bpt, m) == std::vector<int>{3});
         CHECK(m == std::vector<int>{2});
-        HandPath c = path(point, {{3.f, glass.get()}, {3.5f, glass.get()}});  // 3, 0.5, 1.5
+        HandPath c = HandPath::onAxis(point, {{3.f, glass.get()}, {3.5f, glass.get()}});  // 3, 0.5, 1.5
         CHECK(contributing(c, bpt, m) == std::vector<int>{1});
         CHECK(m == std::vector<int>{1});
         // PT has next-event estimation only (s = 1): x0-x1 whatever the lengths.
@@ -208,7 +201,7 @@ TEST_CASE("KD13 mollifies only paths no technique of the integrator samples, by 
         CHECK(bpt.context(t, End::Camera).reg.cone == 0.f);
     }
     SECTION("L S D S E: BPT mollifies one vertex, VCM merges at the diffuse vertex instead") {
-        HandPath h = path(point, {{0.5f, glass.get()}, {2.f, diffuse.get()}, {2.5f, glass.get()}});
+        HandPath h = HandPath::onAxis(point, {{0.5f, glass.get()}, {2.f, diffuse.get()}, {2.5f, glass.get()}});
         // Lengths 0.5, 1.5, 0.5, 2.5: light tracing from x3, the longest with one mollified vertex.
         CHECK(contributing(h, bpt, m) == std::vector<int>{4});
         CHECK(m == std::vector<int>{3});
@@ -216,12 +209,12 @@ TEST_CASE("KD13 mollifies only paths no technique of the integrator samples, by 
     }
     SECTION("paths some technique samples are left alone") {
         // An area light behind glass: the camera walk hits it (s = 0).
-        HandPath h = path(area, {{1.f, glass.get()}});
+        HandPath h = HandPath::onAxis(area, {{1.f, glass.get()}});
         CHECK(contributing(h, bpt, m) == std::vector<int>{0});
         CHECK(m.empty());
         // A diffuse vertex next to the light, seen through glass: next-event estimation at x1
         // samples it (PT and BPT); the connections at the glass give nothing.
-        HandPath d = path(point, {{1.f, diffuse.get()}, {2.f, glass.get()}});
+        HandPath d = HandPath::onAxis(point, {{1.f, diffuse.get()}, {2.f, glass.get()}});
         for (const reg::Kd13* kd : {&pt, &bpt}) {
             CHECK(contributing(d, *kd, m) == std::vector<int>{1});
             CHECK(m.empty());
