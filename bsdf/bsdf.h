@@ -146,8 +146,9 @@ public:
     virtual bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const = 0;
     // Union of the flags of all lobes.
     virtual uint32_t flags() const = 0;
-    // Scalar roughness in [0,1] for accumulated roughness (OPSR): 0 delta, 1 diffuse,
-    // microfacet: sqrt(alpha_u * alpha_v) clamped to [0,1].
+    // Scalar roughness in [0,1] for accumulated roughness (OPSR, integrators/transport/opsr.h, the
+    // reference attenuation file's convention): 0 delta, 1 diffuse, microfacet: min(alpha_u, alpha_v)
+    // clamped to [0,1].
     virtual float roughness() const = 0;
     // The microfacet alphas (0,0 for non-microfacet lobes).
     virtual Roughness alpha() const { return {}; }

@@ -95,9 +95,10 @@ struct MicrofacetLobe {
     }
     Microfacet microfacet(const Resolved& a) const { return Microfacet(type, a.u, a.v, masking); }
 };
-// Scalar roughness for OPSR: sqrt(alphaU alphaV) clamped to [0, 1].
+// Scalar roughness for OPSR: min(alphaU, alphaV) clamped to [0, 1] (the reference attenuation
+// file's convention for anisotropic lobes; integrators/transport/opsr.h).
 inline float scalarRoughness(float alphaU, float alphaV) {
-    return std::clamp(std::sqrt(std::max(0.f, alphaU * alphaV)), 0.f, 1.f);
+    return std::clamp(std::min(alphaU, alphaV), 0.f, 1.f);
 }
 
 // ---- Fresnel-free microfacet BSDFs (F = 1 for reflection, 1 - F = 1 for refraction) -------

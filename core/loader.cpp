@@ -160,6 +160,16 @@ private:
             if (!(I.regLambda >= 0.0 && I.regLambda < 0.5))
                 p.failAt("reg_lambda", fmt::format("must be in [0, 0.5) (got {})", I.regLambda));
         }
+        if (p.has("reg_opsr_gamma")) {
+            I.regOpsrGamma = p.getFloat("reg_opsr_gamma", -1.f);
+            if (!(I.regOpsrGamma >= 0.0 && I.regOpsrGamma <= 1.0))
+                p.failAt("reg_opsr_gamma", fmt::format("must be in [0, 1] (got {})", I.regOpsrGamma));
+        }
+        I.regOpsrTable = p.getString("reg_opsr_table", "");
+        if (p.has("reg_opsr_table") && I.regOpsrTable.empty()) p.failAt("reg_opsr_table", "must name a file (FILE[:SET])");
+        if (p.has("reg_opsr_gamma") && !I.regOpsrTable.empty())
+            p.failAt("reg_opsr_table", "give either reg_opsr_gamma or reg_opsr_table, not both");
+        I.regOpsrConsistent = p.getBool("reg_opsr_consistent", false);
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.
         if (p.has("initial_radius") && p.has("radius")) p.failAt("radius", "give either radius or initial_radius");

@@ -56,7 +56,7 @@ struct CameraDesc {
 
 // The values the regularisation parameters accept: the loader (XML), render's options and the
 // analysis tools' configurations check against these lists.
-inline const std::vector<std::string> kRegularizerNames{"none", "jg19", "kd13"};
+inline const std::vector<std::string> kRegularizerNames{"none", "jg19", "kd13", "opsr"};
 inline const std::vector<std::string> kRegScheduleNames{"consistent", "fixed"};
 inline const std::vector<std::string> kRegMisNames{"regularised", "sampling"};
 inline const std::vector<std::string> kRegSpecularNames{"ggx", "cone"};
@@ -80,7 +80,10 @@ struct IntegratorDesc {
     std::optional<bool> regDiffusion;    // JG19's diffusion heuristic (reg_diffusion; unset: as regQuality)
     std::string regSpecular = "ggx";     // JG19's smooth lobes: ggx | cone (reg_specular)
     double regR0 = -1.0;                 // KD13's r_0 (reg_r0; <= 0: the default)
-    double regLambda = -1.0;             // KD13's lambda (reg_lambda; < 0: the default)
+    double regLambda = -1.0;             // KD13's lambda, OPSR's consistent offset's (reg_lambda; < 0: the default)
+    double regOpsrGamma = -1.0;          // OPSR's constant gamma (reg_opsr_gamma; < 0: 0.01 unless a table)
+    std::string regOpsrTable;            // OPSR's per-class factors, FILE[:SET] (reg_opsr_table; "": none)
+    bool regOpsrConsistent = false;      // OPSR's consistent offset (reg_opsr_consistent)
 };
 
 struct SceneDesc {

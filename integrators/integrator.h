@@ -8,6 +8,7 @@
 #include "core/film.h"
 #include "integrators/transport/jg19.h"
 #include "integrators/transport/kd13.h"
+#include "integrators/transport/opsr.h"
 #include "integrators/transport/path.h"
 #include "core/scene.h"
 
@@ -35,7 +36,7 @@ struct RenderSettings {
     int onlyS = -1, onlyT = -1;
     // Test hook: scales the MIS weights of connections with s >= 2 (1 = correct).
     float testMisScale = 1.f;
-    // Path-space regularisation (integrators/transport/regularizer.h): none | jg19 | kd13.
+    // Path-space regularisation (integrators/transport/regularizer.h): none | jg19 | kd13 | opsr.
     std::string regularizer = "none";
     double regTau = -1.0;                    // JG19 tau_0; <= 0: the integrator's default (regTauDefault)
     std::string regSchedule = "consistent";  // consistent (JG19 Eq. 16) | fixed
@@ -51,7 +52,12 @@ struct RenderSettings {
     // KD13 (integrators/transport/kd13.h): r_0 (<= 0: 1% of the geometry's bounding radius) and
     // lambda of r_N = r_0 N^-lambda (< 0: 1/6 for one mollified vertex, 1/12 for two).
     double regR0 = -1.0;
-    double regLambda = -1.0;
+    double regLambda = -1.0;  // (also OPSR's consistent offset, h_N = h_0 N^-lambda; < 0: 1/6)
+    // OPSR (integrators/transport/opsr.h): a constant attenuation factor (< 0: 0.01 unless a table
+    // is given), a table "FILE[:SET]" ("": none), and the consistent offset.
+    double regOpsrGamma = -1.0;
+    std::string regOpsrTable;
+    bool regOpsrConsistent = false;
 };
 
 // Whether JG19's diffusion heuristic runs for these settings (unset: as the quality heuristic).
@@ -61,6 +67,7 @@ inline bool regDiffusionOf(const RenderSettings& s) { return s.regDiffusion.valu
 inline double regularisationTauOf(const reg::None&) { return 0.0; }
 inline double regularisationTauOf(const reg::Jg19& r) { return r.tau(); }
 inline double regularisationTauOf(const reg::Kd13& r) { return r.radius(1); }  // (KD13: r_N of one vertex)
+inline double regularisationTauOf(const reg::Opsr& r) { return r.offsetScale(); }  // (OPSR: N^-lambda or 1)
 
 // JG19's default tau_0 (Sec. 6): 30 for PT and BPT (and LT), 1000 for VCM (and PPM).
 double regTauDefault(const std::string& integrator);

@@ -3,7 +3,7 @@
 // A class template on the regulariser policy (integrators/transport/regularizer.h), which the
 // loop passes to the walk, emitterHit and connect without knowing which one runs.
 // (A header: each regulariser policy instantiates it in its own unit, pt.cpp for None and JG19,
-// kd13_integrators.cpp for KD13, so that no unit grows past GCC's inlining limits: with KD13's
+// kd13_integrators.cpp for KD13, opsr_integrators.cpp for OPSR, so that no unit grows past GCC's inlining limits: with KD13's
 // instantiation in the same unit, BPT and VCM ran 1% more instructions.)
 #pragma once
 #include <memory>
@@ -99,11 +99,62 @@ public:
                            stats);
                 }
             }
+            // s = 0 through z[t-1] with the regulariser's own BSDF sample (regularizer.h (6): OPSR).
+            if constexpr (requires { Reg::kEmitterSample; }) {
+                BsdfContext ctx;
+                if (t <= maxDepth && !v.infinite && reg_.emitterSample(z, t, ctx))
+                    regularisedEmitterHit(scene, z, t, ctx, rng, pdfs, readLimit, L, pixel, stats);
+            }
         }
         return L;
     }
 
 private:
+    // The emitter-hit technique through z[t-1] drawn with the regularised context ctx
+    // (regularizer.h (6)): one BSDF sample on a stream split from the walk's (whose numbers, and so
+    // every other contribution, stay as they were) and one ray; a light it hits is written into
+    // z[t] for emitterHit (its density there is the regularised BSDF's, at the two vertex
+    // positions, as next-event estimation evaluates it), and the walk's vertex is put back.
+    void regularisedEmitterHit(const Scene& scene, PathVertex* z, int t, const BsdfContext& ctx, const Rng& rng,
+                               PathPdfs& pdfs, int readLimit, Color& L, uint32_t pixel, WalkStats& stats) const {
+        PathVertex& v = z[t - 1];
+        Rng side = rng.split(uint64_t(t) + 0x9e3779b97f4a7c15ull);
+        BsdfSample bs;
+        const float uLobe = side.uniform();
+        if (!v.bsdf().sample(v.wo, uLobe, side.uniform2(), ctx, bs) || isBlack(bs.weight) || (bs.lobe & kDelta)) return;
+        const PathVertex saved = z[t];
+        PathVertex& e = z[t];
+        const Ray ray = scene.spawnRay(v.p, v.ng, bs.wi);
+        ++stats.rays;
+        if (stats.log) stats.log->addClosest(ray, v.depth);
+        bool hit = false;
+        if (scene.intersect(ray, e)) {
+            if (e.light) {
+                const Vec3 back = v.p - e.p;
+                const float len = glm::length(back);
+                const Vec3 wo = len > 0.f ? back * (1.f / len) : -ray.d;
+                const BsdfEval ev = v.bsdf().eval(v.wo, -wo, ctx);
+                const SolidAnglePdf pdf = ev.pdfFwd.value > 0.f ? ev.pdfFwd : bs.pdfFwd;
+                e.init(reg_, VertexKind::Surface, &v, wo, len, v.beta * bs.weight, AreaPdf(0.f),
+                       convertDensity(pdf, e, wo, sqr(len)));
+                hit = true;
+            }
+        } else if (!scene.infiniteLights().empty()) {
+            e.setPoint(ray.o + ray.d * (2.f * scene.boundsRadius()), Vec3(0.f), scene.infiniteLights().front(), 1.f);
+            e.init(reg_, VertexKind::Surface, &v, -ray.d, kInf, v.beta * bs.weight, AreaPdf(0.f),
+                   AreaPdf(bs.pdfFwd.value), true);
+            hit = true;
+        }
+        if (hit) {
+            const Color c = emitterHit(scene, reg_, z, t + 1, pdfs, readLimit, true);
+            if (!isBlack(c)) {
+                const float w = strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f;
+                record(L, c * w, 0, t + 1, pixel, true, false, stats);
+            }
+        }
+        z[t] = saved;
+    }
+
     // A weighted contribution of technique (s, t), with whether its own technique was regularised
     // and whether no unregularised technique could produce it (singularPath; with strategy images).
     void record(Color& L, const Color& c, int s, int t, uint32_t pixel, bool regularised, bool singular,

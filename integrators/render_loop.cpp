@@ -15,6 +15,7 @@ std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::J
 std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Jg19& reg);
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Kd13& reg);
 std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Kd13& reg);
+std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Opsr& reg);
 
 double regTauDefault(const std::string& integrator) {
     return integrator == "vcm" || integrator == "ppm" ? 1000.0 : 30.0;
@@ -81,6 +82,32 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         k.r0 = s.regR0;
         k.lambda = s.regLambda;
         return makeWith(s, reg::Kd13(k));
+    }
+    if (s.regularizer == "opsr") {
+        if (s.integrator != "pt")
+            throw std::invalid_argument(fmt::format(
+                "--reg opsr runs with the path tracer only so far (--integrator pt; '{}' with OPSR is not built yet: "
+                "issue 15)", s.integrator));
+        if (s.ptStrategy == "nee")
+            throw std::invalid_argument("--reg opsr needs --pt-strategy mis or bsdf: 'nee' drops the emitter hits after a "
+                                        "smooth vertex, where OPSR's next-event estimation needs roughness accumulated "
+                                        "before it (after only smooth vertices the light would be lost)");
+        reg::OpsrSettings o;
+        if (!s.regOpsrTable.empty()) {
+            if (s.regOpsrGamma >= 0.0)
+                throw std::invalid_argument("give either --reg-opsr-gamma (one constant factor) or --reg-opsr-table "
+                                            "(per-class factors), not both");
+            const auto [file, set] = opsr::splitTableSpec(s.regOpsrTable);
+            o.attenuation.table = opsr::loadAttenuationTable(file, set);
+        } else {
+            o.attenuation.gamma = s.regOpsrGamma >= 0.0 ? float(s.regOpsrGamma) : 0.01f;
+        }
+        o.consistent = s.regOpsrConsistent;
+        o.lambda = s.regLambda;
+        if (s.regLambda >= 0.0 && !s.regOpsrConsistent)
+            throw std::invalid_argument("--reg-lambda with --reg opsr sets the consistent offset's exponent: it needs "
+                                        "--reg-opsr-consistent");
+        return makePathTracer(s, reg::Opsr(o));
     }
     throw std::invalid_argument(fmt::format("unknown regulariser '{}' (supported: {})", s.regularizer,
                                             fmt::join(kRegularizerNames, ", ")));

@@ -530,7 +530,10 @@ TEST_CASE("regularisation request (minimum alpha) and delta threshold", "[bsdf]"
     CHECK(rough->roughness() == Approx(0.2f));
     CHECK(smooth->roughness() == 0.f);
     CHECK(makeDiffuse(Color(1.f))->roughness() == 1.f);
-    CHECK(makeRoughConductor(MicrofacetType::GGX, 0.1f, 0.4f, kCuEta, kCuK, Color(1.f))->roughness() == Approx(0.2f));
+    // (OPSR's convention, the reference attenuation file's: an anisotropic lobe counts min(alpha_u, alpha_v))
+    CHECK(makeRoughConductor(MicrofacetType::GGX, 0.1f, 0.4f, kCuEta, kCuK, Color(1.f))->roughness() == Approx(0.1f));
+    CHECK(makeTwoSided(makeRoughConductor(MicrofacetType::GGX, 0.7f, 1.5f, kCuEta, kCuK, Color(1.f)))->roughness() == Approx(0.7f));
+    CHECK(makeRoughDielectric(MicrofacetType::GGX, 1.2f, 2.f, 1.5f)->roughness() == 1.f);  // clamped
     CHECK(makeRoughConductor(MicrofacetType::GGX, 0.1f, 0.4f, kCuEta, kCuK, Color(1.f))->alpha().alphaV == 0.4f);
 }
 

@@ -94,7 +94,14 @@ TEST_CASE("bad command lines exit with 1 and name the problem", "[cli]") {
                           Case{"--reg kd13 --reg-lambda 0.6", "reg-lambda"}, Case{"--reg kd13 --reg-r0 -1", "reg-r0"},
                           Case{"--reg kd13 --reg-tau 50", "applies to --reg jg19 only"},
                           Case{"--reg jg19 --reg-r0 0.1", "applies to --reg kd13 only"},
-                          Case{"--reg kd13 --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"}}) {
+                          Case{"--reg kd13 --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"},
+                          Case{"--reg opsr --reg-opsr-gamma 2", "reg-opsr-gamma"},
+                          Case{"--reg kd13 --reg-opsr-gamma 0.1", "applies to --reg opsr only"},
+                          Case{"--reg opsr --reg-opsr-table /no/such/opsr.json:low", "/no/such/opsr.json"},
+                          Case{"--reg opsr --reg-opsr-gamma 0.1 --reg-opsr-table x.json", "either"},
+                          Case{"--reg opsr --integrator bpt", "path tracer only"},
+                          Case{"--reg opsr --reg-lambda 0.2", "needs --reg-opsr-consistent"},
+                          Case{"--reg opsr --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"}}) {
         Run r = run(scene + c.args);
         INFO(c.args << "\n" << r.output);
         CHECK(r.code == 1);

@@ -98,7 +98,7 @@ RunConfig parseConfig(const std::string& spec) {
         if (eq != std::string::npos) {
             val = opt.substr(eq + 1);
             opt = opt.substr(0, eq);
-        } else if (opt != "--hide-emitters") {
+        } else if (opt != "--hide-emitters" && opt != "--reg-opsr-consistent") {  // (flags)
             if (i + 1 >= w.size()) throw std::invalid_argument(fmt::format("configuration '{}': {} needs a value", spec, opt));
             val = w[++i];
         }
@@ -142,6 +142,15 @@ RunConfig parseConfig(const std::string& spec) {
             c.regLambda = toDouble(opt, val);
             if (!(*c.regLambda >= 0.0 && *c.regLambda < 0.5))
                 throw std::invalid_argument(fmt::format("configuration '{}': --reg-lambda must be in [0, 0.5)", spec));
+        } else if (opt == "--reg-opsr-gamma") {
+            c.regOpsrGamma = toDouble(opt, val);
+            if (!(*c.regOpsrGamma >= 0.0 && *c.regOpsrGamma <= 1.0))
+                throw std::invalid_argument(fmt::format("configuration '{}': --reg-opsr-gamma must be in [0, 1]", spec));
+        } else if (opt == "--reg-opsr-table") {
+            if (val.empty()) throw std::invalid_argument(fmt::format("configuration '{}': --reg-opsr-table needs FILE[:SET]", spec));
+            c.regOpsrTable = val;
+        } else if (opt == "--reg-opsr-consistent") {
+            c.regOpsrConsistent = val.empty() || val == "true" || val == "1" || val == "on";
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;
@@ -222,10 +231,14 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     s.regSpecular = c.regSpecular.value_or(desc.integrator.regSpecular);
     s.regR0 = c.regR0.value_or(desc.integrator.regR0);
     s.regLambda = c.regLambda.value_or(desc.integrator.regLambda);
+    s.regOpsrGamma = c.regOpsrGamma.value_or(desc.integrator.regOpsrGamma);
+    s.regOpsrTable = c.regOpsrTable.value_or(desc.integrator.regOpsrTable);
+    s.regOpsrConsistent = c.regOpsrConsistent.value_or(desc.integrator.regOpsrConsistent);
     if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
         throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
                                                     "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --reg, --reg-tau, "
                                                     "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda, "
+                                                    "--reg-opsr-gamma, --reg-opsr-table, --reg-opsr-consistent, "
                                                     "--label)",
                                                     c.spec, c.extra.begin()->first));
     return s;

@@ -21,9 +21,9 @@ namespace lt::analysis {
 //   "pt"  "pt --pt-strategy bsdf"  "vcm --radius 0.01 --radius-alpha 0.75"  "bpt --max-depth 8 --label BPT"
 // Options (as in `render`): --pt-strategy mis|nee|bsdf, --max-depth D, --rr-depth D, --hide-emitters,
 // --radius R, --radius-alpha A (or --alpha; initial radius and radius reduction of VCM/PPM),
-// --reg none|jg19|kd13, --reg-tau T, --reg-schedule consistent|fixed, --reg-mis regularised|sampling,
-// --reg-quality on|off, --reg-diffusion on|off, --reg-specular ggx|cone, --reg-r0 R, --reg-lambda L (path-space
-// regularisation, as render), --label NAME (the name in legends, tables and the CSV; default: the whole string). Any other
+// --reg none|jg19|kd13|opsr, --reg-tau T, --reg-schedule consistent|fixed, --reg-mis regularised|sampling,
+// --reg-quality on|off, --reg-diffusion on|off, --reg-specular ggx|cone, --reg-r0 R, --reg-lambda L,
+// --reg-opsr-gamma G, --reg-opsr-table FILE[:SET], --reg-opsr-consistent (path-space regularisation, as render), --label NAME (the name in legends, tables and the CSV; default: the whole string). Any other
 // `--name value` is an error naming it. Mitsuba integrator
 // names (path, bdpt, ptracer) are accepted for pt, bpt, lt.
 struct RunConfig {
@@ -35,9 +35,12 @@ struct RunConfig {
     std::optional<bool> hideEmitters;
     std::optional<double> radius, radiusAlpha;
     // Regularisation, as render's --reg, --reg-tau, --reg-schedule, --reg-mis, --reg-quality,
-    // --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda.
+    // --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda, --reg-opsr-gamma, --reg-opsr-table,
+    // --reg-opsr-consistent.
     std::optional<std::string> regularizer, regSchedule, regMis, regSpecular;
-    std::optional<double> regTau, regR0, regLambda;
+    std::optional<double> regTau, regR0, regLambda, regOpsrGamma;
+    std::optional<std::string> regOpsrTable;
+    std::optional<bool> regOpsrConsistent;
     std::optional<bool> regQuality, regDiffusion;
     std::map<std::string, std::string> extra;
 };

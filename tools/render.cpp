@@ -60,7 +60,8 @@ int main(int argc, char** argv) {
     double regTau = -1.0;
     app.add_option("--reg", regularizer,
                    "Path-space regulariser: none (default), jg19 (microfacet roughness bound), kd13 (cone mollifier "
-                   "of smooth vertices on paths no technique of the integrator samples); overrides the scene's")
+                   "of smooth vertices on paths no technique of the integrator samples), opsr (accumulated roughness "
+                   "at next-event estimation, Weier et al. 2021; path tracer only so far); overrides the scene's")
         ->check(CLI::IsMember(kRegularizerNames));
     app.add_option("--reg-tau", regTau,
                    "JG19 bound tau_0 on the BSDF at connections and merges (default 30 for pt/bpt/lt, 1000 for "
@@ -97,6 +98,20 @@ int main(int argc, char** argv) {
                    "KD13 radius reduction r_N = r_0 N^-lambda, N the pass (default 1/6 for one mollified vertex, 1/12 for "
                    "two, KD13 Sec. 5.1; consistent for lambda < 1/2 with one, < 1/4 with two; 0: a fixed radius)")
         ->check(CLI::Range(0.0, 0.4999999));
+    double regOpsrGamma = -1.0;
+    std::string regOpsrTable;
+    bool regOpsrConsistent = false;
+    app.add_option("--reg-opsr-gamma", regOpsrGamma,
+                   "OPSR constant attenuation factor gamma (Eq. 11; default 0.01, the paper's naive setting; 0 renders "
+                   "as --reg none)")
+        ->check(CLI::Range(0.0, 1.0));
+    app.add_option("--reg-opsr-table", regOpsrTable,
+                   "OPSR per-path-class attenuation factors (Eqs. 13-14) from a JSON file, FILE[:SET] (SET default "
+                   "low; e.g. ../shared/data/opsr/opsr-reference-attenuation.json:moderate; 'interp' sets are looked up "
+                   "multilinearly)");
+    app.add_flag("--reg-opsr-consistent", regOpsrConsistent,
+                 "OPSR consistent offset (Sec. 4.2): the roughness added shrinks as N^-lambda, N the pass "
+                 "(lambda: --reg-lambda, default 1/6)");
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
     app.footer("Exit codes: 0 success, 1 bad command line, 2 bad scene, 3 output not written, 4 runtime error.");
@@ -161,16 +176,23 @@ int main(int argc, char** argv) {
     settings.regSpecular = !regSpecular.empty() ? regSpecular : desc.integrator.regSpecular;
     settings.regR0 = regR0 > 0.0 ? regR0 : desc.integrator.regR0;
     settings.regLambda = regLambda >= 0.0 ? regLambda : desc.integrator.regLambda;
+    settings.regOpsrGamma = regOpsrGamma >= 0.0 ? regOpsrGamma : desc.integrator.regOpsrGamma;
+    settings.regOpsrTable = !regOpsrTable.empty() ? regOpsrTable : desc.integrator.regOpsrTable;
+    settings.regOpsrConsistent = regOpsrConsistent || desc.integrator.regOpsrConsistent;
     // A knob of another regulariser than the one that runs is a mistake, not a no-op.
     {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
                               !regDiffusion.empty() || !regSpecular.empty();
-        const bool kd13Knob = regR0 > 0.0 || regLambda >= 0.0;
+        const bool kd13Knob = regR0 > 0.0 || (regLambda >= 0.0 && settings.regularizer != "opsr");
+        const bool opsrKnob = regOpsrGamma >= 0.0 || !regOpsrTable.empty() || regOpsrConsistent;
         const bool jg19Misplaced = jg19Knob && settings.regularizer != "jg19";
-        if (jg19Misplaced || (kd13Knob && settings.regularizer != "kd13")) {
+        const bool opsrMisplaced = opsrKnob && settings.regularizer != "opsr";
+        if (jg19Misplaced || opsrMisplaced || (kd13Knob && settings.regularizer != "kd13")) {
             fmt::print(stderr, "error: {} applies to --reg {} only (this render: --reg {})\n",
-                       jg19Misplaced ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular" : "--reg-r0/--reg-lambda",
-                       jg19Misplaced ? "jg19" : "kd13", settings.regularizer);
+                       jg19Misplaced   ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular"
+                       : opsrMisplaced ? "--reg-opsr-gamma/-table/-consistent"
+                                       : "--reg-r0/--reg-lambda",
+                       jg19Misplaced ? "jg19" : opsrMisplaced ? "opsr" : "kd13", settings.regularizer);
             return 1;
         }
     }
@@ -226,7 +248,7 @@ int main(int argc, char** argv) {
         stats.contributions ? double(stats.regularisedContributions) / double(stats.contributions) : 0.0;
     if (settings.regularizer != "none")
         fmt::print(", {}: {:.1f}% of contributions regularised, {} {:.4g}", settings.regularizer, 100.0 * regShare,
-                   settings.regularizer == "kd13" ? "r_N" : "tau_N", stats.tau);
+                   settings.regularizer == "kd13" ? "r_N" : settings.regularizer == "opsr" ? "offset N^-lambda" : "tau_N", stats.tau);
     fmt::print(" -> {}\n", output);
     if (!statsJson.empty()) {
         nlohmann::json j;
@@ -260,6 +282,13 @@ int main(int argc, char** argv) {
             j["reg_r0"] = settings.regR0;  // (-1: the default, 1% of the geometry's bounding radius)
             j["reg_lambda"] = settings.regLambda;  // (-1: the defaults, 1/6 and 1/12)
             j["reg_r_last"] = stats.tau;  // r_N of one mollified vertex at the last pass
+        }
+        if (settings.regularizer == "opsr") {
+            if (!settings.regOpsrTable.empty()) j["reg_opsr_table"] = settings.regOpsrTable;
+            else j["reg_opsr_gamma"] = settings.regOpsrGamma >= 0.0 ? settings.regOpsrGamma : 0.01;
+            j["reg_opsr_consistent"] = settings.regOpsrConsistent;
+            if (settings.regOpsrConsistent) j["reg_lambda"] = settings.regLambda;  // (-1: the default, 1/6)
+            j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: no consistent offset)
         }
         if (settings.regularizer != "none") {
             j["contributions"] = stats.contributions;

@@ -293,9 +293,11 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
 // fills the pdfs (path_templates.h).
+// regularisedSample: z[t-1] was reached by the path tracer's regularised BSDF sample at z[t-2]
+// (regularizer.h (6)), not by the walk.
 template <class Reg>
 Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs,
-                 int readLimit = kMaxPathVertices);
+                 int readLimit = kMaxPathVertices, bool regularisedSample = false);
 
 // Merge (vertex merging) of light vertex y[i] (i >= 1; `photon` holds what is needed of y[i] and
 // y[i-1], `y` the light subpath's vertices y[0..i] and `lightPdfs` their densities; y may be null

@@ -190,12 +190,14 @@ int lightWalk(const Scene& scene, const Reg& reg, Rng& rng, int maxVertices, int
 }
 
 template <class Reg>
-Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit) {
+Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit,
+                 bool regularisedSample) {
     const PathVertex& v = z[t - 1];
     if (!v.light || t < 2) return Color(0.f);
     Color Le = v.light->Le(v.ng, v.wo);
     if (isBlack(Le)) return Color(0.f);
     Technique tech{nullptr, 0, z, t};
+    tech.regularisedSample = regularisedSample;
     if (!reg.select(tech)) return Color(0.f);  // regularizer.h (5)
     gatherCameraPdfs(z, t, 0, pdfs, readLimit);
     pdfs.belowBase = pdfs.aboveBase = -1.0;
@@ -267,13 +269,13 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
 }
 
 // The explicit instantiations of the templates above for one regulariser policy: path.cpp for
-// reg::None, jg19.cpp for reg::Jg19 (each in its own unit: see path.cpp).
+// reg::None, jg19.cpp, kd13.cpp and opsr.cpp for theirs (each in its own unit: see path.cpp).
 #define LT_INSTANTIATE_TRANSPORT(Reg)                                                                        \
     template int lightWalk(const Scene&, const Reg&, Rng&, int, int, PathVertex*, WalkStats&);               \
     template PathVertex cameraEndpoint(const Scene&, const Reg&);                                            \
     template int cameraWalk(const Scene&, const Reg&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,  \
                             WalkPdfs);                                                                       \
-    template Color emitterHit(const Scene&, const Reg&, const PathVertex*, int, PathPdfs&, int);             \
+    template Color emitterHit(const Scene&, const Reg&, const PathVertex*, int, PathPdfs&, int, bool);       \
     template bool merge(const Reg&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, \
                         int, Connection&, const double*);
 

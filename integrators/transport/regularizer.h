@@ -66,6 +66,12 @@
 //        MIS weights of the techniques that can sample it sum to one with no light counted twice.
 //        Returns false when the technique's weight on this path is 0 (the routine then returns
 //        nothing, before its shadow ray). None: regularises nothing, returns true.
+//  (6) Optional: the path tracer's regularised BSDF sample (OPSR, opsr.h (4)).
+//        kEmitterSample = true and emitterSample(z, t, ctx): where it returns true, the path
+//        tracer's emitter-hit technique through camera vertex z[t-1] is a BSDF sample drawn there
+//        with the context ctx (an extra ray), evaluated by emitterHit with
+//        Technique::regularisedSample set; select() then refuses the walk's own emitter hits
+//        through z[t-1]. A policy without the member has no such sample (None, JG19, KD13).
 #pragma once
 #include "bsdf/bsdf.h"
 
@@ -123,6 +129,9 @@ struct Technique {
     // under the diffusion heuristic, KD13's cone half-angle).
     int regularised[2] = {-1, -1};
     float bound[2] = {kInf, kInf};
+    // An emitter hit (s = 0) whose last direction was the path tracer's regularised BSDF sample
+    // (6), not the camera walk's own.
+    bool regularisedSample = false;
 };
 
 // The two ends of a technique's connection.

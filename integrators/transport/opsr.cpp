@@ -1,0 +1,266 @@
+#include "integrators/transport/opsr.h"
+
+#include <fmt/format.h>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include "integrators/transport/path_templates.h"
+
+namespace lt::opsr {
+
+namespace {
+
+std::runtime_error tableError(const std::string& file, const std::string& field, const std::string& what) {
+    return std::runtime_error(fmt::format("{}: {}: {}", file, field, what));
+}
+
+}  // namespace
+
+std::pair<std::string, std::string> splitTableSpec(const std::string& spec) {
+    const size_t colon = spec.rfind(':');
+    if (colon == std::string::npos || colon == 0 || spec.find('/', colon) != std::string::npos)
+        return {spec, "low"};
+    return {spec.substr(0, colon), spec.substr(colon + 1)};
+}
+
+std::shared_ptr<const AttenuationTable> loadAttenuationTable(const std::string& path, const std::string& set) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(fmt::format("{}: cannot open the OPSR attenuation file", path));
+    std::stringstream text;
+    text << in.rdbuf();
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(text.str());
+    } catch (const nlohmann::json::parse_error& e) {
+        throw std::runtime_error(fmt::format("{}: malformed JSON (truncated or not JSON): {}", path, e.what()));
+    }
+    if (!j.is_object() || !j.contains("sets") || !j["sets"].is_object())
+        throw tableError(path, "sets", "missing (expected an object of named sets, each with 'tables')");
+    const auto& sets = j["sets"];
+    if (!sets.contains(set)) {
+        std::vector<std::string> names;
+        for (auto it = sets.begin(); it != sets.end(); ++it) names.push_back(it.key());
+        throw tableError(path, "sets." + set, fmt::format("no such set (the file has: {})", fmt::join(names, ", ")));
+    }
+    const std::string setField = "sets." + set + ".tables";
+    const auto& s = sets[set];
+    if (!s.is_object() || !s.contains("tables") || !s["tables"].is_object())
+        throw tableError(path, setField, "missing (expected an object with the keys \"2\" to \"5\")");
+    auto table = std::make_shared<AttenuationTable>();
+    table->file = path;
+    table->set = set;
+    table->interpolated = set.find("interp") != std::string::npos;
+    for (int k = 2; k <= kMaxWindow; ++k) {
+        const std::string key = std::to_string(k), field = setField + "." + key;
+        if (!s["tables"].contains(key)) throw tableError(path, field, "missing");
+        const auto& arr = s["tables"][key];
+        const size_t expected = size_t(std::pow(kQ, k));
+        if (!arr.is_array() || arr.size() != expected)
+            throw tableError(path, field,
+                             fmt::format("expected an array of Q^{} = {} factors, got {}", k, expected,
+                                         arr.is_array() ? fmt::format("{} entries", arr.size()) : std::string(arr.type_name())));
+        auto& out = table->tables[k];
+        out.resize(expected);
+        for (size_t i = 0; i < expected; ++i) {
+            const auto& v = arr[i];
+            // (JSON has no NaN literal: nlohmann reads a NaN written by a tool as null)
+            const double x = v.is_number() ? v.get<double>() : std::nan("");
+            if (!std::isfinite(x) || x < 0.0 || x > 1.0)
+                throw tableError(path, fmt::format("{}[{}]", field, i),
+                                 fmt::format("an attenuation factor must be a finite number in [0, 1], got {}", v.dump()));
+            out[i] = float(x);
+        }
+    }
+    return table;
+}
+
+int roughnessBin(float a) {
+    a = std::clamp(a, 0.f, 1.f);
+    const int i = int(std::floor((std::exp2(std::sqrt(a)) - 1.f) * float(kQ + 1)));
+    return std::min(i, kQ - 1);
+}
+
+float binCoordinate(float a) {
+    a = std::clamp(a, 0.f, 1.f);
+    return std::min((std::exp2(std::sqrt(a)) - 1.f) * float(kQ + 1), float(kQ - 1));
+}
+
+int windowIndex(const float* a, int k) {
+    int index = 0, scale = 1;
+    for (int j = 0; j < k; ++j, scale *= kQ) index += scale * roughnessBin(a[j]);
+    return index;
+}
+
+float windowFactor(const AttenuationTable& table, const float* a, int k) {
+    const std::vector<float>& t = table.tables[k];
+    if (!table.interpolated) return t[size_t(windowIndex(a, k))];
+    // Per vertex: the two nearest nodes (bin centres i + 1/2) and the weight of the upper one.
+    int lo[kMaxWindow], hi[kMaxWindow];
+    float w[kMaxWindow];
+    for (int j = 0; j < k; ++j) {
+        const float u = std::clamp(binCoordinate(a[j]) - 0.5f, 0.f, float(kQ - 1));
+        lo[j] = std::min(int(u), kQ - 1);
+        hi[j] = std::min(lo[j] + 1, kQ - 1);
+        w[j] = u - float(lo[j]);
+    }
+    double sum = 0.0;
+    for (int corner = 0; corner < (1 << k); ++corner) {
+        double weight = 1.0;
+        int index = 0, scale = 1;
+        for (int j = 0; j < k; ++j, scale *= kQ) {
+            const bool upper = (corner >> j) & 1;
+            weight *= upper ? double(w[j]) : 1.0 - double(w[j]);
+            index += scale * (upper ? hi[j] : lo[j]);
+        }
+        if (weight > 0.0) sum += weight * double(t[size_t(index)]);
+    }
+    return float(sum);
+}
+
+float accumulateWindow(const float* a, int k, float gamma) {
+    if (k <= 1) return a[0];
+    // 1 - (1 - a_last) P written as a_last + (1 - a_last)(1 - P): exactly a_last when P = 1 (gamma
+    // 0, or only smooth vertices before), where 1 - (1 - a_last) may round above it.
+    float keep = 1.f;
+    for (int i = 0; i < k - 1; ++i) keep *= 1.f - gamma * a[i];
+    return a[k - 1] + (1.f - a[k - 1]) * (1.f - keep);
+}
+
+float accumulatedRoughness(const float* a, int count, const Attenuation& att) {
+    if (count <= 1) return count == 1 ? a[0] : 0.f;
+    if (!att.table) {  // Eq. 11: one gamma for the whole subpath
+        return accumulateWindow(a, count, att.gamma);
+    }
+    const AttenuationTable& table = *att.table;
+    if (roughnessBin(a[count - 1]) == kQ - 1) return a[count - 1];  // the top bin keeps its own roughness
+    // Eq. 14: windows of five collapse into a virtual roughness that stands in for their last vertex.
+    float window[kMaxWindow];
+    int start = 0;
+    float virtualRoughness = a[0];
+    while (count - start > kMaxWindow) {
+        window[0] = virtualRoughness;
+        for (int j = 1; j < kMaxWindow; ++j) window[j] = a[start + j];
+        virtualRoughness = accumulateWindow(window, kMaxWindow, windowFactor(table, window, kMaxWindow));
+        start += kMaxWindow - 1;
+    }
+    const int k = count - start;
+    window[0] = virtualRoughness;
+    for (int j = 1; j < k; ++j) window[j] = a[start + j];
+    return accumulateWindow(window, k, windowFactor(table, window, k));
+}
+
+}  // namespace lt::opsr
+
+namespace lt::reg {
+
+Opsr::Opsr(const OpsrSettings& settings) : settings_(settings) {
+    const float g = settings.attenuation.gamma;
+    if (!settings.attenuation.table && !(g >= 0.f && g <= 1.f))
+        throw std::invalid_argument(fmt::format("OPSR: the attenuation factor gamma must be in [0, 1], got {}", g));
+    if (settings.lambda >= 0.0 && !(settings.lambda > 0.0 && settings.lambda < 0.5))
+        throw std::invalid_argument(
+            fmt::format("OPSR: lambda of the consistent offset must be in (0, 1/2), got {}", settings.lambda));
+}
+
+void Opsr::beginIteration(uint64_t n, const Scene& scene, const MisConfig&) {
+    n_ = n;
+    hittableLight_ = false;
+    for (const Light& l : scene.lights()) hittableLight_ = hittableLight_ || l.isHittable();
+}
+
+double Opsr::offsetScale() const {
+    return settings_.consistent ? std::pow(double(std::max<uint64_t>(n_, 1)), -lambda()) : 1.0;
+}
+
+float Opsr::request(const PathVertex* path, int count) const {
+    const PathVertex& v = path[count - 1];
+    if (count < 2 || v.kind != VertexKind::Surface || v.infinite || !v.bxdf) return -1.f;
+    std::array<float, kMaxPathVertices> a;
+    for (int j = 1; j < count; ++j) a[j - 1] = path[j].roughness;
+    const float own = v.roughness;
+    float g = opsr::accumulatedRoughness(a.data(), count - 1, settings_.attenuation);
+    if (settings_.consistent) g = own + float(double(g - own) * offsetScale());
+    if (!(g > own)) return -1.f;
+    BsdfContext ctx(TransportMode::Radiance);
+    ctx.reg.minAlpha = {g, g};
+    return detail::requestCanChange(v, ctx) ? g : -1.f;
+}
+
+bool Opsr::select(Technique& tech) const {
+    tech.regularised[0] = tech.regularised[1] = -1;
+    if (tech.photon) return true;  // (merges: not with OPSR; makeIntegrator refuses VCM)
+    if (tech.s == 0) {
+        // The emitter hit through z[t-2] (x_1): the regularised sample's where the request changes
+        // it, the walk's own elsewhere.
+        const float g = tech.t >= 3 ? request(tech.z, tech.t - 1) : -1.f;
+        if (g < 0.f) return !tech.regularisedSample;
+        if (!tech.regularisedSample) return false;
+        tech.regularised[0] = 1;
+        tech.bound[0] = g;
+        return true;
+    }
+    int m = 0;
+    auto end = [&](const PathVertex* path, int count, int x) {
+        const PathVertex& v = path[count - 1];
+        if (v.kind != VertexKind::Surface) return true;  // an endpoint
+        const float g = request(path, count);
+        if (g >= 0.f) {
+            tech.regularised[m] = x;
+            tech.bound[m++] = g;
+            return true;
+        }
+        return v.connectible();
+    };
+    return end(tech.y, tech.s, tech.s - 1) && end(tech.z, tech.t, tech.s);
+}
+
+bool Opsr::emitterSample(const PathVertex* z, int t, BsdfContext& ctx) const {
+    if (!hittableLight_) return false;
+    const float g = request(z, t);
+    if (g < 0.f) return false;
+    ctx = BsdfContext(TransportMode::Radiance);
+    ctx.reg.minAlpha = {g, g};
+    return true;
+}
+
+void Opsr::densities(const Technique& tech, PathPdfs& P) const {
+    // (4): the path tracer's two techniques, both regularised at x_1 (the camera vertex next to
+    // the light): x_1 is a connection end, and the emitter hit's density is the regularised BSDF
+    // sample's (the emitter hit written it into x_0's fromCamera; next-event estimation evaluates
+    // it here, towards its light sample).
+    for (int j : tech.regularised)
+        if (j >= 0) P.delta[j] = false;
+    for (int k = 0; k <= P.n; ++k) P.connectionScale[k] = k <= 1 ? 1.f : 0.f;
+    for (int i = 0; i < P.n; ++i) P.mergeScale[i] = 0.f;
+    // (select writes the vertices it regularises from slot 0 on: NEE's camera end is in slot 0)
+    const int slot = tech.regularised[0] == 1 ? 0 : tech.regularised[1] == 1 ? 1 : -1;
+    if (tech.s == 1 && slot >= 0 && P.lightHittable) {
+        const PathVertex& v = tech.z[tech.t - 1];
+        const PathVertex& light = tech.y[0];
+        Vec3 d = light.p - v.p;
+        const float d2 = glm::dot(d, d);
+        BsdfContext ctx(TransportMode::Radiance);
+        ctx.reg.minAlpha = {tech.bound[slot], tech.bound[slot]};
+        if (d2 > 0.f) {
+            d *= 1.f / std::sqrt(d2);
+            const BsdfEval e = v.bsdf().eval(v.wo, d, ctx);
+            const float pReg = convertDensity(e.pdfFwd, light, d, d2).value;
+            P.connectionScale[0] = float(double(pReg) / detail::remapDensity(P.fromCamera[0]));
+        } else {
+            P.connectionScale[0] = 0.f;
+        }
+    }
+    P.regularised = true;
+}
+
+}  // namespace lt::reg
+
+namespace lt {
+
+// The templates of path_templates.h for this policy (path.cpp has the unregularised ones).
+LT_INSTANTIATE_TRANSPORT(reg::Opsr)
+
+}  // namespace lt

@@ -1,0 +1,149 @@
+// OPSR: optimised path-space regularisation (Weier et al. 2021), as a policy of the regulariser
+// seam (regularizer.h). Paper: ../shared/papers/opsr21-optimised-path-space-regularisation.txt.
+// Reference attenuation factors: a JSON file the user passes by path (the authors' learnt tables,
+// e.g. ../shared/data/opsr/opsr-reference-attenuation.json); the project ships no copy.
+//
+// (1) Roughness of a vertex (the reference file's convention): Lambert 1, a smooth conductor or
+//     dielectric 0, a microfacet lobe min(alpha_u, alpha_v) clamped to [0, 1]
+//     (Bxdf::roughness(), cached per shape in SurfacePoint::roughness).
+// (2) Accumulated roughness of a subpath's surface vertices a_0 (the first after the endpoint;
+//     endpoints have none) .. a_{k-1} (the connection vertex):
+//       g = 1 - (1 - a_{k-1}) prod_{i<k-1} (1 - gamma a_i)          (Eq. 11: one constant gamma;
+//                                                                      Eq. 13: gamma per class)
+//     A subpath of one surface vertex keeps its roughness (Eq. 6).
+//     Per-class gamma (a table): Q = 4 bins, bin(a) = min(floor((2^sqrt(a) - 1)(Q + 1)), Q - 1);
+//     a window of k <= 5 vertices reads tables[k] at index sum_j Q^j bin(a_j) (a_0 the oldest),
+//     one gamma for the whole window. Longer subpaths (Eq. 14): the first five vertices collapse
+//     into a virtual roughness g_6(a_0..a_4) (with their own window's gamma), which takes the place
+//     (and the bin) of a_4 in the next window; the window advances by four until at most five
+//     remain. If the connection vertex falls in the top bin its own roughness is kept (the
+//     reference implementation's rule; with a constant gamma there is no such rule).
+//     Interp sets ('interp' in the set's name, trained with multilinear interpolation): each
+//     window vertex has the continuous bin coordinate c(a) = (2^sqrt(a) - 1)(Q + 1) clamped to
+//     [0, Q - 1], the table's entry for bin i stands at its centre i + 1/2 (so the nearest-bin
+//     look-up is the nearest node), and gamma interpolates multilinearly between the two nearest
+//     nodes per vertex (clamped at the first and last centre). The file does not state where the
+//     nodes stand; bin centres are our reading.
+// (3) The consistent offset (Sec. 4.2): g_N = a_{k-1} + (g - a_{k-1}) N^-lambda, N the pass (each
+//     pixel takes one sample per pass), lambda in (0, 1/2) (default 1/6).
+// (4) Where (the path tracer; the only integrator with OPSR so far). At next-event estimation
+//     the camera vertex z[t-1] is evaluated with the request minAlpha = g of the camera subpath
+//     z[1..t-1] wherever that changes its BSDF (a smooth vertex with g >= kMinAlpha becomes a rough
+//     GGX lobe, a glossy one with g > its alpha a rougher one). The path tracer's other technique
+//     for such a path, the emitter hit, is a BSDF sample drawn at z[t-1] with the same request
+//     (one extra ray there, when the scene has a light a ray can hit), as in the reference
+//     implementation; the walk itself continues with the material's own BSDF (the prefix is the
+//     unregularised one), and its own emitter hits through a vertex the request changes have
+//     weight 0 (the regularised sample replaces them). So both techniques estimate one integrand,
+//     the path with its last vertex before the light regularised, and the MIS compares their own
+//     densities: the regularised BSDF's density at z[t-1] and the light sample's (densities()).
+//     A smooth vertex with nothing accumulated (g = 0: only smooth vertices before it) stays a
+//     delta: next-event estimation cannot connect there and select() refuses it.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+#include "integrators/transport/path.h"
+
+namespace lt::opsr {
+
+inline constexpr int kQ = 4;          // roughness bins
+inline constexpr int kMaxWindow = 5;  // surface vertices per window
+
+// The per-class attenuation factors of one set: tables[k] holds Q^k factors for a window of k
+// surface vertices (k = 2..5).
+struct AttenuationTable {
+    std::string file, set;
+    bool interpolated = false;  // an 'interp' set: multilinear look-ups
+    std::array<std::vector<float>, kMaxWindow + 1> tables;
+};
+
+// Loads set `set` of the attenuation file at `path` (the reference file's layout: sets.<set>.tables
+// with keys "2".."5", arrays of Q^k numbers in [0, 1]). Throws std::runtime_error naming the file
+// and the field for a missing or unreadable file, malformed JSON, a missing set (listing those
+// there are), a table of the wrong length, or a factor that is not a finite number in [0, 1].
+std::shared_ptr<const AttenuationTable> loadAttenuationTable(const std::string& path, const std::string& set);
+// "FILE[:SET]" -> (FILE, SET); SET defaults to "low".
+std::pair<std::string, std::string> splitTableSpec(const std::string& spec);
+
+// (2) The bin of a roughness, its continuous coordinate, and the table index of a window.
+int roughnessBin(float a);
+float binCoordinate(float a);
+int windowIndex(const float* a, int k);
+// The attenuation factor of the window a[0..k-1] (2 <= k <= 5): the nearest-bin entry or the
+// multilinear one (table.interpolated).
+float windowFactor(const AttenuationTable& table, const float* a, int k);
+// 1 - (1 - a_{k-1}) prod_{i<k-1} (1 - gamma a_i); a[0] for k = 1.
+float accumulateWindow(const float* a, int k, float gamma);
+
+// How gamma is chosen: one constant (Eq. 11), or per class from a table (Eqs. 13-14).
+struct Attenuation {
+    float gamma = 0.01f;
+    std::shared_ptr<const AttenuationTable> table;
+};
+// The accumulated roughness of a subpath's surface vertices a[0..count-1] (count >= 1), a[count-1]
+// the connection vertex: Eq. 11 with a constant gamma, Eqs. 13-14 with a table.
+float accumulatedRoughness(const float* a, int count, const Attenuation& att);
+
+}  // namespace lt::opsr
+
+namespace lt::reg {
+
+struct OpsrSettings {
+    opsr::Attenuation attenuation;
+    bool consistent = false;  // (3)
+    double lambda = -1.0;     // < 0: 1/6
+};
+
+class Opsr {
+public:
+    // Throws std::invalid_argument for gamma outside [0, 1] or lambda outside (0, 1/2).
+    explicit Opsr(const OpsrSettings& settings);
+    const OpsrSettings& settings() const { return settings_; }
+    void beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg);
+    void setIteration(uint64_t n) { n_ = n; }
+    double lambda() const { return settings_.lambda < 0.0 ? 1.0 / 6.0 : settings_.lambda; }
+    // The share of the accumulated offset g - a kept in pass N: N^-lambda (consistent), else 1.
+    double offsetScale() const;
+
+    // The roughness the request asks for at the last vertex of the subpath path[0..count-1]
+    // (path[0] its endpoint, path[1..count-1] surface vertices), with (3) applied; -1 where the
+    // request would not change that vertex's BSDF (g not above its roughness, a BSDF that ignores
+    // requests, or a smooth one the request leaves a delta).
+    float request(const PathVertex* path, int count) const;
+
+    // The seam (regularizer.h).
+    BsdfContext context(const Technique& tech, End end) const {
+        const int j = end == End::Light ? tech.s - 1 : tech.s;
+        const TransportMode mode = end == End::Light ? TransportMode::Importance : TransportMode::Radiance;
+        BsdfContext c(mode);
+        for (int m = 0; m < 2; ++m)
+            if (tech.regularised[m] == j) c.reg.minAlpha = {tech.bound[m], tech.bound[m]};
+        return c;
+    }
+    static constexpr bool kPerTechnique = true;
+    bool perTechnique(const Technique& tech) const { return tech.regularised[0] >= 0 || tech.regularised[1] >= 0; }
+    void densities(const Technique& tech, PathPdfs& pdfs) const;
+    void start(PathVertex&) const {}
+    void extend(PathVertex&, PathVertex&) const {}
+    // Smooth surface vertices too: whether the request makes one rough depends on the subpath
+    // (select decides).
+    bool connectible(const PathVertex& v) const {
+        return v.connectible() || (v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.deltaBsdf);
+    }
+    bool mergeable(const PathVertex& v) const { return v.connectible(); }
+    bool select(Technique& tech) const;
+    // (6) The path tracer's regularised BSDF sample at camera vertex z[t-1]: true (and its context)
+    // where the request changes z[t-1]'s BSDF and the scene has a light a ray can hit.
+    static constexpr bool kEmitterSample = true;
+    bool emitterSample(const PathVertex* z, int t, BsdfContext& ctx) const;
+
+private:
+    OpsrSettings settings_;
+    uint64_t n_ = 1;
+    bool hittableLight_ = true;
+};
+
+}  // namespace lt::reg
