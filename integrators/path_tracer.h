@@ -122,37 +122,35 @@ private:
         BsdfSample bs;
         const float uLobe = side.uniform();
         if (!v.bsdf().sample(v.wo, uLobe, side.uniform2(), ctx, bs) || isBlack(bs.weight) || (bs.lobe & kDelta)) return;
-        const PathVertex saved = z[t];
-        PathVertex& e = z[t];
+        // The hit goes into a vertex of its own; only a light's is copied into z[t] (the rare case).
+        PathVertex e;
         const Ray ray = scene.spawnRay(v.p, v.ng, bs.wi);
         ++stats.rays;
         if (stats.log) stats.log->addClosest(ray, v.depth);
-        bool hit = false;
         if (scene.intersect(ray, e)) {
-            if (e.light) {
-                const Vec3 back = v.p - e.p;
-                const float len = glm::length(back);
-                const Vec3 wo = len > 0.f ? back * (1.f / len) : -ray.d;
-                const BsdfEval ev = v.bsdf().eval(v.wo, -wo, ctx);
-                const SolidAnglePdf pdf = ev.pdfFwd.value > 0.f ? ev.pdfFwd : bs.pdfFwd;
-                e.init(reg_, VertexKind::Surface, &v, wo, len, v.beta * bs.weight, AreaPdf(0.f),
-                       convertDensity(pdf, e, wo, sqr(len)));
-                hit = true;
-            }
+            if (!e.light) return;
+            const Vec3 back = v.p - e.p;
+            const float len = glm::length(back);
+            const Vec3 wo = len > 0.f ? back * (1.f / len) : -ray.d;
+            const BsdfEval ev = v.bsdf().eval(v.wo, -wo, ctx);
+            const SolidAnglePdf pdf = ev.pdfFwd.value > 0.f ? ev.pdfFwd : bs.pdfFwd;
+            e.init(reg_, VertexKind::Surface, &v, wo, len, v.beta * bs.weight, AreaPdf(0.f),
+                   convertDensity(pdf, e, wo, sqr(len)));
         } else if (!scene.infiniteLights().empty()) {
             e.setPoint(ray.o + ray.d * (2.f * scene.boundsRadius()), Vec3(0.f), scene.infiniteLights().front(), 1.f);
             e.init(reg_, VertexKind::Surface, &v, -ray.d, kInf, v.beta * bs.weight, AreaPdf(0.f),
                    AreaPdf(bs.pdfFwd.value), true);
-            hit = true;
+        } else {
+            return;
         }
-        if (hit) {
-            const Color c = emitterHit(scene, reg_, z, t + 1, pdfs, readLimit, true);
-            if (!isBlack(c)) {
-                const float w = strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f;
-                record(L, c * w, 0, t + 1, pixel, true, false, stats);
-            }
-        }
+        const PathVertex saved = z[t];
+        z[t] = e;
+        const Color c = emitterHit(scene, reg_, z, t + 1, pdfs, readLimit, true);
         z[t] = saved;
+        if (!isBlack(c)) {
+            const float w = strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f;
+            record(L, c * w, 0, t + 1, pixel, true, false, stats);
+        }
     }
 
     // A weighted contribution of technique (s, t), with whether its own technique was regularised

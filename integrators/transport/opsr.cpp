@@ -177,7 +177,11 @@ double Opsr::offsetScale() const {
 
 float Opsr::request(const PathVertex* path, int count) const {
     const PathVertex& v = path[count - 1];
-    if (count < 2 || v.kind != VertexKind::Surface || v.infinite || !v.bxdf) return -1.f;
+    // The common answers first, in O(1): a BSDF no request changes (Lambert, a diffuse lobe), a
+    // vertex already at roughness 1, and (tables) one in the top bin, which keeps its roughness.
+    if (count < 2 || v.kind != VertexKind::Surface || v.infinite || !v.bxdf || v.bxdf->lambert()) return -1.f;
+    if (!(v.bxdf->flags() & (kGlossy | kDelta)) || !(v.roughness < 1.f)) return -1.f;
+    if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return -1.f;
     std::array<float, kMaxPathVertices> a;
     for (int j = 1; j < count; ++j) a[j - 1] = path[j].roughness;
     const float own = v.roughness;
@@ -189,9 +193,7 @@ float Opsr::request(const PathVertex* path, int count) const {
     return detail::requestCanChange(v, ctx) ? g : -1.f;
 }
 
-bool Opsr::select(Technique& tech) const {
-    tech.regularised[0] = tech.regularised[1] = -1;
-    if (tech.photon) return true;  // (merges: not with OPSR; makeIntegrator refuses VCM)
+bool Opsr::selectRequest(Technique& tech) const {
     if (tech.s == 0) {
         // The emitter hit through z[t-2] (x_1): the regularised sample's where the request changes
         // it, the walk's own elsewhere.
@@ -217,8 +219,7 @@ bool Opsr::select(Technique& tech) const {
     return end(tech.y, tech.s, tech.s - 1) && end(tech.z, tech.t, tech.s);
 }
 
-bool Opsr::emitterSample(const PathVertex* z, int t, BsdfContext& ctx) const {
-    if (!hittableLight_) return false;
+bool Opsr::emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) const {
     const float g = request(z, t);
     if (g < 0.f) return false;
     ctx = BsdfContext(TransportMode::Radiance);
@@ -238,20 +239,13 @@ void Opsr::densities(const Technique& tech, PathPdfs& P) const {
     // (select writes the vertices it regularises from slot 0 on: NEE's camera end is in slot 0)
     const int slot = tech.regularised[0] == 1 ? 0 : tech.regularised[1] == 1 ? 1 : -1;
     if (tech.s == 1 && slot >= 0 && P.lightHittable) {
+        // The regularised sample's density of x_0, from the evaluation connect made at z[t-1].
         const PathVertex& v = tech.z[tech.t - 1];
         const PathVertex& light = tech.y[0];
-        Vec3 d = light.p - v.p;
+        const Vec3 d = light.p - v.p;
         const float d2 = glm::dot(d, d);
-        BsdfContext ctx(TransportMode::Radiance);
-        ctx.reg.minAlpha = {tech.bound[slot], tech.bound[slot]};
-        if (d2 > 0.f) {
-            d *= 1.f / std::sqrt(d2);
-            const BsdfEval e = v.bsdf().eval(v.wo, d, ctx);
-            const float pReg = convertDensity(e.pdfFwd, light, d, d2).value;
-            P.connectionScale[0] = float(double(pReg) / detail::remapDensity(P.fromCamera[0]));
-        } else {
-            P.connectionScale[0] = 0.f;
-        }
+        const float pReg = d2 > 0.f ? convertDensity(SolidAnglePdf(tech.pdfCamera), light, d * (1.f / std::sqrt(d2)), d2).value : 0.f;
+        P.connectionScale[0] = float(double(pReg) / detail::remapDensity(P.fromCamera[0]));
     }
     P.regularised = true;
 }

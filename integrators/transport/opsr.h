@@ -134,13 +134,33 @@ public:
         return v.connectible() || (v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.deltaBsdf);
     }
     bool mergeable(const PathVertex& v) const { return v.connectible(); }
-    bool select(Technique& tech) const;
+    // The common answers inline: an emitter hit or a connection whose vertices no request can
+    // change (mayChange) is unregularised; the rest is the out-of-line form.
+    bool select(Technique& tech) const {
+        tech.regularised[0] = tech.regularised[1] = -1;
+        if (tech.photon) return true;
+        if (tech.s == 0) {
+            if (tech.t < 3 || !mayChange(tech.z[tech.t - 2])) return !tech.regularisedSample;
+        } else if (!mayChange(tech.y[tech.s - 1]) && !mayChange(tech.z[tech.t - 1])) {
+            return tech.y[tech.s - 1].connectible() && tech.z[tech.t - 1].connectible();
+        }
+        return selectRequest(tech);
+    }
     // (6) The path tracer's regularised BSDF sample at camera vertex z[t-1]: true (and its context)
     // where the request changes z[t-1]'s BSDF and the scene has a light a ray can hit.
     static constexpr bool kEmitterSample = true;
-    bool emitterSample(const PathVertex* z, int t, BsdfContext& ctx) const;
+    bool emitterSample(const PathVertex* z, int t, BsdfContext& ctx) const {
+        return hittableLight_ && mayChange(z[t - 1]) && emitterSampleRequest(z, t, ctx);
+    }
+    // A surface vertex whose BSDF a request may change: a roughness below 1 (Lambert counts 1, and
+    // a microfacet lobe at alpha >= 1 cannot be made rougher). request() decides the rest.
+    static bool mayChange(const PathVertex& v) {
+        return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.roughness < 1.f;
+    }
 
 private:
+    bool selectRequest(Technique& tech) const;
+    bool emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) const;
     OpsrSettings settings_;
     uint64_t n_ = 1;
     bool hittableLight_ = true;

@@ -76,13 +76,18 @@ inline void applyContinuation(BsdfEval& e, const Bxdf& b) {
 // material's own BSDF, which is what the walks sample (a request changes a technique's density in
 // the MIS only through its per-technique factor, regularizer.h (2)), times the vertex's
 // continuation probability as the walks' densities ("Russian roulette", path.h). `ratio` receives
-// rho_hat / rho (channel means; +inf when rho is 0 or a delta). Where the request cannot change
-// the BSDF (requestCanChange): one evaluation, as ever, and ratio 1.
-inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio) {
+// rho_hat / rho (channel means; +inf when rho is 0 or a delta) and `regularisedPdf` the
+// regularised BSDF's own density of wi (for a policy whose competing technique samples it: OPSR's
+// regularised BSDF sample). Where the request cannot change the BSDF (requestCanChange): one
+// evaluation, as ever, ratio 1 and regularisedPdf left as it was.
+inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio,
+                                 float& regularisedPdf) {
     BsdfEval e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
     if (requestCanChange(v, ctx)) {
         const Color plain = e.f;
-        e.f = v.bsdf().eval(v.wo, wi, ctx).f;
+        const BsdfEval r = v.bsdf().eval(v.wo, wi, ctx);
+        e.f = r.f;
+        regularisedPdf = r.pdfFwd.value;
         ratio = regularisedRatio(e.f, plain);
     }
     applyContinuation(e, *v.bxdf);
@@ -212,7 +217,7 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
         eb.pdfFwd = cam.directionPdf(wBA);
         cosB = glm::dot(cam.forward(), wBA);
     } else {
-        eb = detail::evalAtConnection(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera);
+        eb = detail::evalAtConnection(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera, tech.pdfCamera);
         cosB = std::abs(glm::dot(b.shading.n, wBA));
     }
     if (isBlack(eb.f)) return false;
@@ -221,7 +226,7 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     if (aLight) {
         fa = detail::lightEndpointValue(a, -wBA);
     } else {
-        ea = detail::evalAtConnection(a, -wBA, reg.context(tech, End::Light), tech.ratioLight);
+        ea = detail::evalAtConnection(a, -wBA, reg.context(tech, End::Light), tech.ratioLight, tech.pdfLight);
         fa = ea.f;
     }
     if (isBlack(fa)) return false;

@@ -123,6 +123,9 @@ struct Technique {
     // (camera; for a merge, its camera vertex), as the routine evaluated them (1 without a
     // request; +inf when rho is 0 or a delta). Written by connect and merge before densities().
     float ratioLight = 1.f, ratioCamera = 1.f;
+    // The regularised BSDF's own solid-angle density of the connection direction at each end (0
+    // where the request did not change the BSDF), written with the ratios.
+    float pdfLight = 0.f, pdfCamera = 0.f;
     // The x indices (path.h: x_0 the light end) of the vertices of this path that the policy
     // regularises (regularizer.h (5); -1: none), written by select(), and the parameter of the
     // request at each (a policy whose request varies per vertex or per path: JG19's bound tau
