@@ -169,6 +169,13 @@ private:
         if (p.has("reg_opsr_table") && I.regOpsrTable.empty()) p.failAt("reg_opsr_table", "must name a file (FILE[:SET])");
         if (p.has("reg_opsr_gamma") && !I.regOpsrTable.empty())
             p.failAt("reg_opsr_table", "give either reg_opsr_gamma or reg_opsr_table, not both");
+        if (!I.regOpsrTable.empty()) {  // (the file relative to the scene, as mesh files)
+            const auto [file, set] = splitOpsrTableSpec(I.regOpsrTable);
+            std::string tried;
+            const std::string path = xml::resolveFile(doc_, p.owner, file, tried);
+            if (path.empty()) p.failAt("reg_opsr_table", fmt::format("attenuation file '{}' not found (looked for: {})", file, tried));
+            I.regOpsrTable = path + ":" + set;
+        }
         I.regOpsrConsistent = p.getBool("reg_opsr_consistent", false);
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.

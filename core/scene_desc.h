@@ -5,6 +5,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 #include "bsdf/bsdf.h"
 #include "core/math.h"
@@ -60,6 +61,14 @@ inline const std::vector<std::string> kRegularizerNames{"none", "jg19", "kd13", 
 inline const std::vector<std::string> kRegScheduleNames{"consistent", "fixed"};
 inline const std::vector<std::string> kRegMisNames{"regularised", "sampling"};
 inline const std::vector<std::string> kRegSpecularNames{"ggx", "cone"};
+
+// OPSR's table argument "FILE[:SET]" -> (FILE, SET), SET "low" when not given (a colon followed by
+// a path, or none, is part of FILE). The loader resolves FILE against the scene's folder.
+inline std::pair<std::string, std::string> splitOpsrTableSpec(const std::string& spec) {
+    const size_t colon = spec.rfind(':');
+    if (colon == std::string::npos || colon == 0 || spec.find('/', colon) != std::string::npos) return {spec, "low"};
+    return {spec.substr(0, colon), spec.substr(colon + 1)};
+}
 
 struct IntegratorDesc {
     std::string type = "path";  // path | bdpt | vcm | ptracer | ppm

@@ -375,3 +375,48 @@ TEST_CASE("OPSR consistent offset: the bias falls with N, and not with a fixed o
     CHECK(std::abs(late) < 0.25 * std::abs(fixed));
     CHECK(std::abs(late) < std::abs(early));
 }
+
+TEST_CASE("OPSR in a scene file: reg_opsr_table is found beside the scene, and renders", "[opsr][loader]") {
+    // A table written here (every factor 0.5), a scene in the same folder naming it relative to
+    // itself, loaded from another working directory: the loader resolves the file as it does mesh
+    // files, and the render uses it (the glossy sphere after the diffuse floor is regularised).
+    const auto dir = tempDir("lt_opsr", "scene");
+    nlohmann::json t;
+    for (int k = 2; k <= 5; ++k) t["sets"]["half"]["tables"][std::to_string(k)] = std::vector<double>(size_t(std::pow(4, k)), 0.5);
+    std::ofstream(dir / "half.json") << t.dump();
+    std::ofstream(dir / "scene.xml") << R"(<scene version="3.0.0">
+    <integrator type="path">
+        <integer name="max_depth" value="4"/>
+        <string name="regularizer" value="opsr"/>
+        <string name="reg_opsr_table" value="half.json:half"/>
+    </integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0.3, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+    </sensor>
+    <shape type="rectangle">
+        <transform name="to_world"><rotate x="1" angle="-90"/><scale value="5"/></transform>
+        <bsdf type="diffuse"/>
+    </shape>
+    <shape type="sphere">
+        <point name="center" value="0, 0.5, 0"/><float name="radius" value="0.5"/>
+        <bsdf type="roughconductor"><float name="alpha" value="0.02"/></bsdf>
+    </shape>
+    <emitter type="point"><point name="position" value="0, 3, 1"/><rgb name="intensity" value="10, 10, 10"/></emitter>
+</scene>
+)";
+    const auto cwd = std::filesystem::current_path();
+    std::filesystem::current_path(std::filesystem::temp_directory_path());
+    SceneDesc desc = loadScene((dir / "scene.xml").string(), {});
+    std::filesystem::current_path(cwd);
+    CHECK(desc.integrator.regOpsrTable == (dir / "half.json").lexically_normal().string() + ":half");
+    Scene scene(desc);
+    RenderSettings s = settingsFor("pt", 16);
+    s.regularizer = desc.integrator.regularizer;
+    s.regOpsrTable = desc.integrator.regOpsrTable;
+    RenderStats st;
+    renderImage(scene, s, st);
+    CHECK(st.regularisedContributions > 0);
+    std::filesystem::remove_all(dir);
+}

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
+#include "core/scene_desc.h"
 #include "integrators/transport/path_templates.h"
 
 namespace lt::opsr {
@@ -19,12 +20,7 @@ std::runtime_error tableError(const std::string& file, const std::string& field,
 
 }  // namespace
 
-std::pair<std::string, std::string> splitTableSpec(const std::string& spec) {
-    const size_t colon = spec.rfind(':');
-    if (colon == std::string::npos || colon == 0 || spec.find('/', colon) != std::string::npos)
-        return {spec, "low"};
-    return {spec.substr(0, colon), spec.substr(colon + 1)};
-}
+std::pair<std::string, std::string> splitTableSpec(const std::string& spec) { return splitOpsrTableSpec(spec); }
 
 std::shared_ptr<const AttenuationTable> loadAttenuationTable(const std::string& path, const std::string& set) {
     std::ifstream in(path, std::ios::binary);
