@@ -3,8 +3,9 @@
 // A class template on the regulariser policy (integrators/transport/regularizer.h), which the
 // loop passes to the walk, emitterHit and connect without knowing which one runs.
 // (A header: each regulariser policy instantiates it in its own unit, pt.cpp for None and JG19,
-// kd13_integrators.cpp for KD13, opsr_integrators.cpp for OPSR, so that no unit grows past GCC's inlining limits: with KD13's
-// instantiation in the same unit, BPT and VCM ran 1% more instructions.)
+// kd13_integrators.cpp for KD13, opsr_integrators.cpp for OPSR, so that no unit grows past GCC's
+// inlining limits: with KD13's instantiation in the same unit, BPT and VCM ran 1% more
+// instructions.)
 #pragma once
 #include <memory>
 #include <stdexcept>

@@ -82,15 +82,13 @@ public:
 
     // The seam (regularizer.h).
     BsdfContext context(const Technique& tech, End end) const {
-        const int j = end == End::Light ? tech.s - 1 : tech.s;
-        const TransportMode mode = end == End::Light ? TransportMode::Importance : TransportMode::Radiance;
-        BsdfContext c(mode);
-        for (int m = 0; m < 2; ++m)
-            if (tech.regularised[m] == j) c.reg.cone = tech.bound[m];
+        BsdfContext c(modeAt(end));
+        const float eps = boundAt(tech, end);
+        if (eps >= 0.f) c.reg.cone = eps;
         return c;
     }
     static constexpr bool kPerTechnique = true;
-    bool perTechnique(const Technique& tech) const { return tech.regularised[0] >= 0 || tech.regularised[1] >= 0; }
+    bool perTechnique(const Technique& tech) const { return anyRegularised(tech); }
     void densities(const Technique& tech, PathPdfs& pdfs) const;
     void start(PathVertex&) const {}
     void extend(PathVertex&, PathVertex&) const {}

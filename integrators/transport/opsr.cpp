@@ -226,21 +226,22 @@ bool Opsr::emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) co
 void Opsr::densities(const Technique& tech, PathPdfs& P) const {
     // (4): the path tracer's two techniques, both regularised at x_1 (the camera vertex next to
     // the light): x_1 is a connection end, and the emitter hit's density is the regularised BSDF
-    // sample's (the emitter hit written it into x_0's fromCamera; next-event estimation evaluates
-    // it here, towards its light sample).
+    // sample's. For that emitter hit the path tracer wrote it into x_0's fromCamera; for
+    // next-event estimation it is connect's regularised evaluation at z[t-1] towards the light
+    // sample (Technique::pdfCamera), in place of the material's own density there.
     for (int j : tech.regularised)
         if (j >= 0) P.delta[j] = false;
     for (int k = 0; k <= P.n; ++k) P.connectionScale[k] = k <= 1 ? 1.f : 0.f;
     for (int i = 0; i < P.n; ++i) P.mergeScale[i] = 0.f;
     // (select writes the vertices it regularises from slot 0 on: NEE's camera end is in slot 0)
-    const int slot = tech.regularised[0] == 1 ? 0 : tech.regularised[1] == 1 ? 1 : -1;
-    if (tech.s == 1 && slot >= 0 && P.lightHittable) {
-        // The regularised sample's density of x_0, from the evaluation connect made at z[t-1].
+    const bool neeRegularised = tech.regularised[0] == 1 || tech.regularised[1] == 1;
+    if (tech.s == 1 && neeRegularised && P.lightHittable) {
         const PathVertex& v = tech.z[tech.t - 1];
         const PathVertex& light = tech.y[0];
         const Vec3 d = light.p - v.p;
         const float d2 = glm::dot(d, d);
-        const float pReg = d2 > 0.f ? convertDensity(SolidAnglePdf(tech.pdfCamera), light, d * (1.f / std::sqrt(d2)), d2).value : 0.f;
+        const float pReg =
+            d2 > 0.f ? convertDensity(SolidAnglePdf(tech.pdfCamera), light, d * (1.f / std::sqrt(d2)), d2).value : 0.f;
         P.connectionScale[0] = float(double(pReg) / detail::remapDensity(P.fromCamera[0]));
     }
     P.regularised = true;

@@ -103,7 +103,6 @@ public:
     explicit Opsr(const OpsrSettings& settings);
     const OpsrSettings& settings() const { return settings_; }
     void beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg);
-    void setIteration(uint64_t n) { n_ = n; }
     double lambda() const { return settings_.lambda < 0.0 ? 1.0 / 6.0 : settings_.lambda; }
     // The share of the accumulated offset g - a kept in pass N: N^-lambda (consistent), else 1.
     double offsetScale() const;
@@ -116,15 +115,13 @@ public:
 
     // The seam (regularizer.h).
     BsdfContext context(const Technique& tech, End end) const {
-        const int j = end == End::Light ? tech.s - 1 : tech.s;
-        const TransportMode mode = end == End::Light ? TransportMode::Importance : TransportMode::Radiance;
-        BsdfContext c(mode);
-        for (int m = 0; m < 2; ++m)
-            if (tech.regularised[m] == j) c.reg.minAlpha = {tech.bound[m], tech.bound[m]};
+        BsdfContext c(modeAt(end));
+        const float g = boundAt(tech, end);
+        if (g >= 0.f) c.reg.minAlpha = {g, g};
         return c;
     }
     static constexpr bool kPerTechnique = true;
-    bool perTechnique(const Technique& tech) const { return tech.regularised[0] >= 0 || tech.regularised[1] >= 0; }
+    bool perTechnique(const Technique& tech) const { return anyRegularised(tech); }
     void densities(const Technique& tech, PathPdfs& pdfs) const;
     void start(PathVertex&) const {}
     void extend(PathVertex&, PathVertex&) const {}

@@ -140,6 +140,19 @@ struct Technique {
 // The two ends of a technique's connection.
 enum class End { Light, Camera };
 
+// For policies whose request at a connection end is one number per regularised vertex (KD13's
+// cone, OPSR's roughness): the bound select() gave the technique's vertex at `end` (x index s - 1
+// or s), -1 where it regularises none there; the transport mode of that end; and whether select()
+// regularised any vertex.
+inline float boundAt(const Technique& tech, End end) {
+    const int j = end == End::Light ? tech.s - 1 : tech.s;
+    for (int m = 0; m < 2; ++m)
+        if (tech.regularised[m] == j) return tech.bound[m];
+    return -1.f;
+}
+inline TransportMode modeAt(End end) { return end == End::Light ? TransportMode::Importance : TransportMode::Radiance; }
+inline bool anyRegularised(const Technique& tech) { return tech.regularised[0] >= 0 || tech.regularised[1] >= 0; }
+
 namespace reg {
 
 // No regularisation: the reference implementation of the interface above.
