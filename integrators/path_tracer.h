@@ -138,9 +138,7 @@ private:
             e.init(reg_, VertexKind::Surface, &v, wo, len, v.beta * bs.weight, AreaPdf(0.f),
                    convertDensity(pdf, e, wo, sqr(len)));
         } else if (!scene.infiniteLights().empty()) {
-            e.setPoint(ray.o + ray.d * (2.f * scene.boundsRadius()), Vec3(0.f), scene.infiniteLights().front(), 1.f);
-            e.init(reg_, VertexKind::Surface, &v, -ray.d, kInf, v.beta * bs.weight, AreaPdf(0.f),
-                   AreaPdf(bs.pdfFwd.value), true);
+            detail::initAtInfinity(scene, reg_, e, v, ray, v.beta * bs.weight, bs.pdfFwd);
         } else {
             return;
         }

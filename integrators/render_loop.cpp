@@ -97,10 +97,10 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
             if (s.regOpsrGamma >= 0.0)
                 throw std::invalid_argument("give either --reg-opsr-gamma (one constant factor) or --reg-opsr-table "
                                             "(per-class factors), not both");
-            const auto [file, set] = opsr::splitTableSpec(s.regOpsrTable);
+            const auto [file, set] = splitOpsrTableSpec(s.regOpsrTable);
             o.attenuation.table = opsr::loadAttenuationTable(file, set);
         } else {
-            o.attenuation.gamma = s.regOpsrGamma >= 0.0 ? float(s.regOpsrGamma) : 0.01f;
+            o.attenuation.gamma = s.regOpsrGamma >= 0.0 ? float(s.regOpsrGamma) : opsr::kDefaultGamma;
         }
         o.consistent = s.regOpsrConsistent;
         o.lambda = s.regLambda;

@@ -201,8 +201,8 @@ TEST_CASE("OPSR attenuation file: the reference loads, a truncated or corrupt co
             for (size_t i = 0; i < arr.size(); ++i) CHECK(t->tables[k][i] == float(arr[i].get<double>()));
         }
     }
-    CHECK(opsr::splitTableSpec("a/b.json:moderate") == std::make_pair(std::string("a/b.json"), std::string("moderate")));
-    CHECK(opsr::splitTableSpec("a/b.json") == std::make_pair(std::string("a/b.json"), std::string("low")));
+    CHECK(splitOpsrTableSpec("a/b.json:moderate") == std::make_pair(std::string("a/b.json"), std::string("moderate")));
+    CHECK(splitOpsrTableSpec("a/b.json") == std::make_pair(std::string("a/b.json"), std::string("low")));
     auto rejects = [&](const std::string& name, const std::string& text, const std::string& set,
                        const std::vector<std::string>& mentions) {
         const std::string path = (dir / name).string();

@@ -26,6 +26,9 @@ namespace lt::analysis {
 
 namespace {
 
+// The value of a flag option (--hide-emitters, --reg-opsr-consistent): given alone, or =true, =1.
+bool flagValue(const std::string& val) { return val.empty() || val == "true" || val == "1"; }
+
 // Splits on white space; single or double quotes group words ("--label 'PT bsdf'").
 std::vector<std::string> tokenize(const std::string& s) {
     std::vector<std::string> out;
@@ -113,7 +116,7 @@ RunConfig parseConfig(const std::string& spec) {
             c.rrDepth = toInt(opt, val);
             if (*c.rrDepth < 1) throw std::invalid_argument("--rr-depth must be >= 1");
         } else if (opt == "--hide-emitters") {
-            c.hideEmitters = val.empty() || val == "true" || val == "1";
+            c.hideEmitters = flagValue(val);
         } else if (opt == "--radius") {
             c.radius = toDouble(opt, val);
         } else if (opt == "--radius-alpha" || opt == "--alpha") {
@@ -150,7 +153,7 @@ RunConfig parseConfig(const std::string& spec) {
             if (val.empty()) throw std::invalid_argument(fmt::format("configuration '{}': --reg-opsr-table needs FILE[:SET]", spec));
             c.regOpsrTable = val;
         } else if (opt == "--reg-opsr-consistent") {
-            c.regOpsrConsistent = val.empty() || val == "true" || val == "1" || val == "on";
+            c.regOpsrConsistent = flagValue(val);
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;

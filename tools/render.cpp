@@ -285,7 +285,7 @@ int main(int argc, char** argv) {
         }
         if (settings.regularizer == "opsr") {
             if (!settings.regOpsrTable.empty()) j["reg_opsr_table"] = settings.regOpsrTable;
-            else j["reg_opsr_gamma"] = settings.regOpsrGamma >= 0.0 ? settings.regOpsrGamma : 0.01;
+            else j["reg_opsr_gamma"] = settings.regOpsrGamma >= 0.0 ? settings.regOpsrGamma : double(opsr::kDefaultGamma);
             j["reg_opsr_consistent"] = settings.regOpsrConsistent;
             if (settings.regOpsrConsistent) j["reg_lambda"] = settings.regLambda;  // (-1: the default, 1/6)
             j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: no consistent offset)

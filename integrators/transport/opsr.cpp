@@ -7,7 +7,6 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
-#include "core/scene_desc.h"
 #include "integrators/transport/path_templates.h"
 
 namespace lt::opsr {
@@ -19,8 +18,6 @@ std::runtime_error tableError(const std::string& file, const std::string& field,
 }
 
 }  // namespace
-
-std::pair<std::string, std::string> splitTableSpec(const std::string& spec) { return splitOpsrTableSpec(spec); }
 
 std::shared_ptr<const AttenuationTable> loadAttenuationTable(const std::string& path, const std::string& set) {
     std::ifstream in(path, std::ios::binary);
@@ -173,10 +170,9 @@ double Opsr::offsetScale() const {
 
 float Opsr::request(const PathVertex* path, int count) const {
     const PathVertex& v = path[count - 1];
-    // The common answers first, in O(1): a BSDF no request changes (Lambert, a diffuse lobe), a
-    // vertex already at roughness 1, and (tables) one in the top bin, which keeps its roughness.
-    if (count < 2 || v.kind != VertexKind::Surface || v.infinite || !v.bxdf || v.bxdf->lambert()) return -1.f;
-    if (!(v.bxdf->flags() & (kGlossy | kDelta)) || !(v.roughness < 1.f)) return -1.f;
+    // The common answers first, in O(1): a vertex no request can change (mayChange: Lambert counts
+    // roughness 1), and (tables) one in the top bin, which keeps its roughness.
+    if (count < 2 || !mayChange(v)) return -1.f;
     if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return -1.f;
     std::array<float, kMaxPathVertices> a;
     for (int j = 1; j < count; ++j) a[j - 1] = path[j].roughness;
@@ -184,9 +180,7 @@ float Opsr::request(const PathVertex* path, int count) const {
     float g = opsr::accumulatedRoughness(a.data(), count - 1, settings_.attenuation);
     if (settings_.consistent) g = own + float(double(g - own) * offsetScale());
     if (!(g > own)) return -1.f;
-    BsdfContext ctx(TransportMode::Radiance);
-    ctx.reg.minAlpha = {g, g};
-    return detail::requestCanChange(v, ctx) ? g : -1.f;
+    return detail::requestCanChange(v, contextFor(TransportMode::Radiance, g)) ? g : -1.f;
 }
 
 bool Opsr::selectRequest(Technique& tech) const {
@@ -218,8 +212,7 @@ bool Opsr::selectRequest(Technique& tech) const {
 bool Opsr::emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) const {
     const float g = request(z, t);
     if (g < 0.f) return false;
-    ctx = BsdfContext(TransportMode::Radiance);
-    ctx.reg.minAlpha = {g, g};
+    ctx = contextFor(TransportMode::Radiance, g);
     return true;
 }
 

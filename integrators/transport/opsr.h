@@ -65,8 +65,6 @@ struct AttenuationTable {
 // and the field for a missing or unreadable file, malformed JSON, a missing set (listing those
 // there are), a table of the wrong length, or a factor that is not a finite number in [0, 1].
 std::shared_ptr<const AttenuationTable> loadAttenuationTable(const std::string& path, const std::string& set);
-// "FILE[:SET]" -> (FILE, SET); SET defaults to "low".
-std::pair<std::string, std::string> splitTableSpec(const std::string& spec);
 
 // (2) The bin of a roughness, its continuous coordinate, and the table index of a window.
 int roughnessBin(float a);
@@ -78,9 +76,12 @@ float windowFactor(const AttenuationTable& table, const float* a, int k);
 // 1 - (1 - a_{k-1}) prod_{i<k-1} (1 - gamma a_i); a[0] for k = 1.
 float accumulateWindow(const float* a, int k, float gamma);
 
+// The constant gamma when none is given: the paper's naive setting (Sec. 5, "Results Analysis").
+inline constexpr float kDefaultGamma = 0.01f;
+
 // How gamma is chosen: one constant (Eq. 11), or per class from a table (Eqs. 13-14).
 struct Attenuation {
-    float gamma = 0.01f;
+    float gamma = kDefaultGamma;
     std::shared_ptr<const AttenuationTable> table;
 };
 // The accumulated roughness of a subpath's surface vertices a[0..count-1] (count >= 1), a[count-1]
@@ -115,9 +116,13 @@ public:
 
     // The seam (regularizer.h).
     BsdfContext context(const Technique& tech, End end) const {
-        BsdfContext c(modeAt(end));
         const float g = boundAt(tech, end);
-        if (g >= 0.f) c.reg.minAlpha = {g, g};
+        return g >= 0.f ? contextFor(modeAt(end), g) : BsdfContext(modeAt(end));
+    }
+    // The request for accumulated roughness g: every lobe at least alpha g on both axes.
+    static BsdfContext contextFor(TransportMode mode, float g) {
+        BsdfContext c(mode);
+        c.reg.minAlpha = {g, g};
         return c;
     }
     static constexpr bool kPerTechnique = true;

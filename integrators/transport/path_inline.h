@@ -120,6 +120,16 @@ inline Rng& lightSampleStream(const PathVertex& v, int t, Rng& walk, std::option
     return *side;
 }
 
+// The vertex at infinity a camera-side ray from prev reaches when it misses the scene (the scene has
+// an environment light): on the scene's far sphere, its density in solid angle (see
+// convertDensity). The camera walk and the path tracer's regularised BSDF sample both make it.
+template <class Reg>
+void initAtInfinity(const Scene& scene, const Reg& reg, PathVertex& v, PathVertex& prev, const Ray& ray,
+                    const Color& beta, SolidAnglePdf pdf) {
+    v.setPoint(ray.o + ray.d * (2.f * scene.boundsRadius()), Vec3(0.f), scene.infiniteLights().front(), 1.f);
+    v.init(reg, VertexKind::Surface, &prev, -ray.d, kInf, beta, AreaPdf(0.f), AreaPdf(pdf.value), true);
+}
+
 // Value a light endpoint sends towards direction w (radiance, intensity or irradiance).
 inline Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
     const Light& l = *a.light;

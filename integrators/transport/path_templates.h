@@ -73,10 +73,7 @@ int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAng
         if (stats.log) stats.log->addClosest(ray, prev.depth);
         if (!scene.intersect(ray, v)) {  // fills the SurfacePoint fields of v
             if (cameraWalk && !scene.infiniteLights().empty()) {
-                // A vertex at infinity (its density stays in solid angle: see convertDensity).
-                const Vec3 far = ray.o + ray.d * (2.f * scene.boundsRadius());
-                v.setPoint(far, Vec3(0.f), scene.infiniteLights().front(), 1.f);
-                v.init(reg, VertexKind::Surface, &prev, -ray.d, kInf, beta, AreaPdf(0.f), AreaPdf(pdfFwd.value), true);
+                initAtInfinity(scene, reg, v, prev, ray, beta, pdfFwd);
                 ++n;
             }
             break;
