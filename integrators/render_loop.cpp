@@ -16,6 +16,7 @@ std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Kd13& reg);
 std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Kd13& reg);
 std::unique_ptr<Integrator> makePathTracer(const RenderSettings& s, const reg::Opsr& reg);
+std::unique_ptr<Integrator> makeBidirectional(const RenderSettings& s, const reg::Opsr& reg);
 
 double regTauDefault(const std::string& integrator) {
     return integrator == "vcm" || integrator == "ppm" ? 1000.0 : 30.0;
@@ -84,11 +85,10 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         return makeWith(s, reg::Kd13(k));
     }
     if (s.regularizer == "opsr") {
-        if (s.integrator != "pt")
-            throw std::invalid_argument(fmt::format(
-                "--reg opsr runs with the path tracer only so far (--integrator pt; '{}' with OPSR is not built yet: "
-                "issue 15)", s.integrator));
-        if (s.ptStrategy == "nee")
+        if (s.integrator == "ppm")
+            throw std::invalid_argument("--reg opsr regularises connection vertices; ppm makes no connections (use pt, bpt, "
+                                        "vcm or lt)");
+        if (s.integrator == "pt" && s.ptStrategy == "nee")
             throw std::invalid_argument("--reg opsr needs --pt-strategy mis or bsdf: 'nee' drops the emitter hits after a "
                                         "smooth vertex, where OPSR's next-event estimation needs roughness accumulated "
                                         "before it (after only smooth vertices the light would be lost)");
@@ -103,11 +103,12 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
             o.attenuation.gamma = s.regOpsrGamma >= 0.0 ? float(s.regOpsrGamma) : opsr::kDefaultGamma;
         }
         o.consistent = s.regOpsrConsistent;
+        o.bidirectional = s.integrator != "pt";
         o.lambda = s.regLambda;
         if (s.regLambda >= 0.0 && !s.regOpsrConsistent)
             throw std::invalid_argument("--reg-lambda with --reg opsr sets the consistent offset's exponent: it needs "
                                         "--reg-opsr-consistent");
-        return makePathTracer(s, reg::Opsr(o));
+        return makeWith(s, reg::Opsr(o));
     }
     throw std::invalid_argument(fmt::format("unknown regulariser '{}' (supported: {})", s.regularizer,
                                             fmt::join(kRegularizerNames, ", ")));

@@ -7,6 +7,7 @@
 #include <vector>
 #include "core/image.h"
 #include "integrators/integrator.h"
+#include "integrators/transport/light_paths.h"
 #include "integrators/transport/path_templates.h"
 #include "scene_builders.h"
 
@@ -49,6 +50,82 @@ void forEachConnection(const Scene& scene, const Reg& jg, const PathVertex* y, i
             if (connect(scene, jg, y, s, zz, t, c, ws)) fn(s, t, zz, c);
         }
 }
+
+// Every merge of a light vertex y[m] (m >= 1, on a surface a merge may use: smooth ones made
+// rough included) at a camera vertex z[t-1] (t >= 2) that carries something: fn(m, t, photon, c,
+// xs), xs the merged path's vertices x_0..x_{n-1} (y[0..m-1], then z[t-1]..z[0]).
+template <class Reg, class Fn>
+void forEachMerge(const Reg& jg, const PathVertex* y, int ny, const PathVertex* z, int nz, Fn&& fn) {
+    for (int m = 1; m < ny; ++m) {
+        if (!jg.connectible(y[m]) || y[m].kind != VertexKind::Surface) continue;
+        std::vector<VertexPdfs> lp;
+        for (int k = 0; k <= m; ++k) lp.push_back(VertexPdfs::of(y[k]));
+        Photon ph;
+        ph.set(0, y[m], y[m - 1], y[0].light->isHittable(), 0.0);
+        for (int t = 2; t <= nz; ++t) {
+            Connection c;
+            if (!merge(jg, ph, y, lp.data(), z, t, c)) continue;
+            std::vector<const PathVertex*> xs;
+            for (int k = 0; k < m; ++k) xs.push_back(&y[k]);
+            for (int k = t - 1; k >= 0; --k) xs.push_back(&z[k]);
+            fn(m, t, ph, c, std::move(xs));
+        }
+    }
+}
+
+// What the regularisers' brute-force MIS weights share: a path's vertices, its gathered sampling
+// densities (tested elsewhere), and the power heuristic over the running integrator's techniques
+// from each technique's factor on its density.
+struct PathWeights {
+    std::vector<const PathVertex*> x;  // x_0 (light) .. x_{n-1} (camera)
+    const PathPdfs& P;
+    MisConfig cfg;
+    // A merge at x_i: the light vertex y[i] merged at the camera vertex x_i. The light subpath's
+    // own vertex is x_{i-1}'s neighbour (as its walk saw it), and the camera vertex looks towards
+    // y[i-1] along y[i].wo (as merge evaluates it).
+    int mergeAt = -1;
+    const PathVertex* mergeLight = nullptr;
+
+    int n() const { return int(x.size()); }
+    Vec3 dir(int from, int to) const {
+        if (mergeLight && from == mergeAt - 1 && to == mergeAt) return glm::normalize(mergeLight->p - x[from]->p);
+        if (mergeLight && from == mergeAt && to == mergeAt - 1) return mergeLight->wo;
+        return glm::normalize(x[to]->p - x[from]->p);
+    }
+    // p_k / p_base of the gathered sampling densities (a delta vertex's 0 counts 1).
+    double ratio(int k, int base) const {
+        double r = 1.0;
+        auto rm = [](float p) { return p != 0.f ? double(p) : 1.0; };
+        for (int i = base; i < k; ++i) r *= rm(P.fromLight[i]) / rm(P.fromCamera[i]);
+        for (int i = k; i < base; ++i) r *= rm(P.fromCamera[i]) / rm(P.fromLight[i]);
+        return r;
+    }
+    // The power-heuristic weight of connection technique s, or of the merge at mergeAt (s then
+    // ignored): connection(k) and merge(i) give technique k's (the merge at x_i's) factor on its
+    // sampling density, < 0 where it cannot produce the path.
+    template <class Connection, class Merge>
+    double powerWeight(int s, Connection&& connection, Merge&& merge) const {
+        const int N = n(), base = mergeAt >= 0 ? mergeAt : s;
+        const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
+        double sum = 0.0, own = 0.0;
+        auto add = [&](double term, bool mine) {
+            sum += term * term;
+            if (mine) own = term * term;
+        };
+        for (int k = 0; k < N; ++k) {
+            if (!allowsTechnique(cfg.set, k, N - k)) continue;
+            if (k == 0 && !(x[0]->light && x[0]->light->isHittable())) continue;
+            const double c = connection(k);
+            if (c >= 0.0) add(ratio(k, base) * c, mergeAt < 0 && k == s);
+        }
+        for (int i = 1; cfg.merging && i <= N - 2; ++i) {
+            const double c = merge(i);
+            const double density = vm * (P.fromLight[i] != 0.f ? double(P.fromLight[i]) : 1.0);
+            if (c >= 0.0) add(ratio(i, base) * density * c, i == mergeAt);
+        }
+        return sum > 0.0 ? own / sum : 0.0;
+    }
+};
 
 // Render settings of the regularisers' render tests: 2 threads, seed 5, max depth 6.
 inline RenderSettings settingsFor(const std::string& integrator, int spp) {

@@ -99,7 +99,7 @@ TEST_CASE("bad command lines exit with 1 and name the problem", "[cli]") {
                           Case{"--reg kd13 --reg-opsr-gamma 0.1", "applies to --reg opsr only"},
                           Case{"--reg opsr --reg-opsr-table /no/such/opsr.json:low", "/no/such/opsr.json"},
                           Case{"--reg opsr --reg-opsr-gamma 0.1 --reg-opsr-table x.json", "either"},
-                          Case{"--reg opsr --integrator bpt", "path tracer only"},
+                          Case{"--reg opsr --integrator ppm", "ppm makes no connections"},
                           Case{"--reg opsr --reg-lambda 0.2", "needs --reg-opsr-consistent"},
                           Case{"--reg opsr --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"}}) {
         Run r = run(scene + c.args);

@@ -42,55 +42,19 @@ TEST_CASE("JG19 with a bound that changes no lobe renders bit-identically to no 
 namespace {
 
 
-// Every merge of a light vertex y[m] (m >= 1, on a surface a merge may use: smooth ones made
-// rough included) at a camera vertex z[t-1] (t >= 2) that carries something: fn(m, t, photon, c,
-// xs), xs the merged path's vertices x_0..x_{n-1} (y[0..m-1], then z[t-1]..z[0]).
-template <class Fn>
-void forEachMerge(const reg::Jg19& jg, const PathVertex* y, int ny, const PathVertex* z, int nz, Fn&& fn) {
-    for (int m = 1; m < ny; ++m) {
-        if (!jg.connectible(y[m]) || y[m].kind != VertexKind::Surface) continue;
-        std::vector<VertexPdfs> lp;
-        for (int k = 0; k <= m; ++k) lp.push_back(VertexPdfs::of(y[k]));
-        Photon ph;
-        ph.set(0, y[m], y[m - 1], y[0].light->isHittable(), 0.0);
-        for (int t = 2; t <= nz; ++t) {
-            Connection c;
-            if (!merge(jg, ph, y, lp.data(), z, t, c)) continue;
-            std::vector<const PathVertex*> xs;
-            for (int k = 0; k < m; ++k) xs.push_back(&y[k]);
-            for (int k = t - 1; k >= 0; --k) xs.push_back(&z[k]);
-            fn(m, t, ph, c, std::move(xs));
-        }
-    }
-}
-
 // The brute-force weight of a technique under JG19, from the path's vertices and its gathered
 // sampling densities (tested elsewhere), with nothing of the policy's bookkeeping (the walks'
 // stored ratios, the singular-vertex rule, the delta flags): every BSDF is evaluated here at the
 // path's vertices, and whether a smooth vertex is specular on this path is decided from its
 // geometry.
-struct BruteForce {
+struct BruteForce : PathWeights {
     const reg::Jg19& jg;
-    std::vector<const PathVertex*> x;  // x_0 (light) .. x_{n-1} (camera)
-    const PathPdfs& P;
-    MisConfig cfg;
     bool regularisedMis;
-    // A merge at x_i: the light vertex y[i] merged at the camera vertex x_i. The light subpath's
-    // own vertex is x_{i-1}'s neighbour (as its walk saw it), and the camera vertex looks towards
-    // y[i-1] along y[i].wo (as merge evaluates it).
-    int mergeAt = -1;
-    const PathVertex* mergeLight = nullptr;
     // With the quality heuristic: the vertices regularised on this path (one integrand for every
     // technique; only techniques whose ends contain them compete, with their sampling densities).
     bool quality = false;
     std::vector<int> R;
 
-    int n() const { return int(x.size()); }
-    Vec3 dir(int from, int to) const {
-        if (mergeLight && from == mergeAt - 1 && to == mergeAt) return glm::normalize(mergeLight->p - x[from]->p);
-        if (mergeLight && from == mergeAt && to == mergeAt - 1) return mergeLight->wo;
-        return glm::normalize(x[to]->p - x[from]->p);
-    }
     // rho and rho_hat of x_j's BSDF between its path neighbours (channel sums).
     void values(int j, double& plain, double& hat) const {
         const PathVertex& v = *x[j];
@@ -113,14 +77,6 @@ struct BruteForce {
         // Snell: the tangential components satisfy t_a = -etaRel t_b.
         const Vec3 ta = a - ca * n, tb = b - cb * n;
         return glm::length(ta + etaRel * tb) < 2e-3f;
-    }
-    // p_k / p_base of the gathered sampling densities.
-    double ratio(int k, int base) const {
-        double r = 1.0;
-        auto rm = [](float p) { return p != 0.f ? double(p) : 1.0; };
-        for (int i = base; i < k; ++i) r *= rm(P.fromLight[i]) / rm(P.fromCamera[i]);
-        for (int i = k; i < base; ++i) r *= rm(P.fromCamera[i]) / rm(P.fromLight[i]);
-        return r;
     }
     // The weight of connection technique s, or of the merge (mergeAt >= 0; s ignored).
     double weight(int s) const {
@@ -163,29 +119,10 @@ struct BruteForce {
             }
             return f;
         };
-        const int base = mergeAt >= 0 ? mergeAt : s;
-        const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
-        auto mergeDensity = [&](int i) { return vm * (P.fromLight[i] != 0.f ? double(P.fromLight[i]) : 1.0); };
-        double sum = 0.0, own = 0.0;
-        for (int k = 0; k < N; ++k) {
-            if (!allowsTechnique(cfg.set, k, N - k)) continue;
-            if (k == 0 && !(x[0]->light && x[0]->light->isHittable())) continue;
-            const double c = coefficient({k - 1, k});
-            if (c < 0.0) continue;
-            const double term = ratio(k, base) * c;
-            sum += term * term;
-            if (mergeAt < 0 && k == s) own = term * term;
-        }
-        if (cfg.merging)
-            for (int i = 1; i <= N - 2; ++i) {
-                if (!jg.connectible(*x[i])) continue;  // photons lie where connections may end
-                const double c = coefficient({i});
-                if (c < 0.0) continue;
-                const double term = ratio(i, base) * mergeDensity(i) * c;
-                sum += term * term;
-                if (i == mergeAt) own = term * term;
-            }
-        return sum > 0.0 ? own / sum : 0.0;
+        return powerWeight(
+            s, [&](int k) { return coefficient({k - 1, k}); },
+            // (photons lie where connections may end)
+            [&](int i) { return jg.connectible(*x[i]) ? coefficient({i}) : -1.0; });
     }
 };
 
@@ -221,7 +158,7 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
                                           z.data(), ws);
                 auto check = [&](const PathPdfs& P, std::vector<const PathVertex*> xs, int s, int mergeAt,
                                  const PathVertex* mergeLight) {
-                    BruteForce bf{jg, std::move(xs), P, cfg, regularisedMis, mergeAt, mergeLight, false, {}};
+                    BruteForce bf{{std::move(xs), P, cfg, mergeAt, mergeLight}, jg, regularisedMis, false, {}};
                     const double ours = mergeAt >= 0 ? misWeightMerge(P, mergeAt, cfg) : misWeight(P, s, cfg);
                     const double ref = bf.weight(s);
                     INFO("path " << i << " s=" << s << " merge " << mergeAt << " n=" << bf.n() << " ours " << ours
@@ -686,7 +623,7 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                 std::vector<const PathVertex*> xs;
                 for (int k = 0; k < s; ++k) xs.push_back(&y[k]);
                 for (int k = t - 1; k >= 0; --k) xs.push_back(&zz[k]);
-                BruteForce bf{jg, std::move(xs), c.pdfs, cfg, false, -1, nullptr, true, R};
+                BruteForce bf{{std::move(xs), c.pdfs, cfg, -1, nullptr}, jg, false, true, R};
                 const double ours = misWeight(c.pdfs, s, cfg), ref = bf.weight(s);
                 INFO("path " << i << " s=" << s << " t=" << t << " ours " << ours << " brute force " << ref);
                 CHECK(std::abs(ours - ref) <= 2e-3);
@@ -701,7 +638,7 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                          std::vector<int> R;
                          for (int j : own.regularised)
                              if (j >= 0) R.push_back(j);
-                         BruteForce bf{jg, std::move(xs), c.pdfs, cfg, false, m, &y[m], true, R};
+                         BruteForce bf{{std::move(xs), c.pdfs, cfg, m, &y[m]}, jg, false, true, R};
                          const double ours = misWeightMerge(c.pdfs, m, cfg), ref = bf.weight(-1);
                          INFO("path " << i << " merge at " << m << " t=" << t << " ours " << ours << " brute force "
                                       << ref);

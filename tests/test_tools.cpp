@@ -442,13 +442,13 @@ TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machin
     // error over PT's.
     CHECK(std::regex_search(md, std::regex(R"(\| pt\+jg19)" + metrics + R"([0-9.]+% \| - \|\n)")));
     CHECK(md.find("Paths no unregularised technique can produce") == std::string::npos);
-    // (Every regulariser: JG19, JG19 with cones and KD13, each with PT, BPT and VCM; OPSR with PT.)
+    // (Every regulariser: JG19, JG19 with cones, KD13 and OPSR, each with PT, BPT and VCM.)
     CHECK(std::regex_search(md, std::regex(R"(## Regularisation at equal time[^]*\| scene \| pt\+jg19 \| bpt\+jg19 \| )"
                                            R"(vcm\+jg19 \| pt\+jg19cone \| bpt\+jg19cone \| vcm\+jg19cone \| )"
-                                           R"(pt\+kd13 \| bpt\+kd13 \| vcm\+kd13 \| pt\+opsr \|\n)"
-                                           R"(\|---\|(---:\|){10}\n\| cornell-box \| [0-9.e+-]+ / )"
+                                           R"(pt\+kd13 \| bpt\+kd13 \| vcm\+kd13 \| pt\+opsr \| bpt\+opsr \| vcm\+opsr \|\n)"
+                                           R"(\|---\|(---:\|){12}\n\| cornell-box \| [0-9.e+-]+ / )"
                                            R"([0-9.e+-]+ \| - \| - \| [0-9.e+-]+ / [0-9.e+-]+ \| - \| - \| )"
-                                           R"([0-9.e+-]+ / [0-9.e+-]+ \| - \| - \| [0-9.e+-]+ / [0-9.e+-]+ \|\n)")));
+                                           R"([0-9.e+-]+ / [0-9.e+-]+ \| - \| - \| [0-9.e+-]+ / [0-9.e+-]+ \| - \| - \|\n)")));
     // A point light in a glass ball: the light seen through the glass is singular (only JG19's
     // connections at the glass render it, the VCM reference has none of it). Its pixels are named
     // and left out of the last column, for every configuration, and the summary gives that ratio.

@@ -61,7 +61,9 @@ int main(int argc, char** argv) {
     app.add_option("--reg", regularizer,
                    "Path-space regulariser: none (default), jg19 (microfacet roughness bound), kd13 (cone mollifier "
                    "of smooth vertices on paths no technique of the integrator samples), opsr (accumulated roughness "
-                   "at next-event estimation, Weier et al. 2021; path tracer only so far); overrides the scene's")
+                   "at connection vertices, Weier et al. 2021: the path tracer's next-event estimation as the paper; "
+                   "in bpt/vcm/lt each connection end with its own subpath's roughness, our extension, smooth "
+                   "vertices only on paths no technique samples; not ppm); overrides the scene's")
         ->check(CLI::IsMember(kRegularizerNames));
     app.add_option("--reg-tau", regTau,
                    "JG19 bound tau_0 on the BSDF at connections and merges (default 30 for pt/bpt/lt, 1000 for "

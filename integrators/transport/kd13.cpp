@@ -44,12 +44,7 @@ Kd13::Choice Kd13::choose(const Technique& tech) const {
     Choice c;
     const int s = tech.s, t = tech.t, n = s + t;
     auto vertex = [&](int j) -> const PathVertex& { return j < s ? tech.y[j] : tech.z[n - 1 - j]; };
-    // The emitter hit: a light the camera walk can hit.
-    if (allowsTechnique(set_, 0, n) && tech.y[0].light && tech.y[0].light->isHittable()) c.samplable = true;
-    for (int k = 1; k < n && !c.samplable; ++k)
-        if (allowsTechnique(set_, k, n - k) && plain(vertex(k - 1)) && plain(vertex(k))) c.samplable = true;
-    for (int i = 1; merging_ && i + 1 < n && !c.samplable; ++i)
-        if (plain(vertex(i))) c.samplable = true;
+    c.samplable = samplableUnregularised(tech, set_, merging_);
     if (c.samplable) return c;
     // The maximum-distance heuristic over the connections a cone makes samplable.
     for (int k = 1; k < n; ++k) {

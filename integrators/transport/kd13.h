@@ -4,8 +4,9 @@
 // ../shared/papers/kd13-path-space-regularization.txt.
 //
 // (1) Which paths (Sec. 4.4). Only a path that no technique of the running integrator can sample
-//     is mollified (Theorem 1: an unbiased local technique needs two neighbouring non-delta
-//     vertices where it connects; the running integrator's techniques decide which pairs count):
+//     is mollified (samplableUnregularised, path.h; Theorem 1: an unbiased local technique needs
+//     two neighbouring non-delta vertices where it connects; the running integrator's techniques
+//     decide which pairs count):
 //       - the emitter hit (s = 0), where the set has it and the light can be hit (area lights, the
 //         background; not a point, spot or directional light);
 //       - connection k (x_{k-1} - x_k), where the set has it and neither end is a delta vertex
@@ -108,9 +109,7 @@ public:
     static bool mollifiable(const PathVertex& v) {
         return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.deltaBsdf;
     }
-    static bool plain(const PathVertex& v) {
-        return v.connectible() && !(v.kind == VertexKind::Surface && v.infinite);
-    }
+    static bool plain(const PathVertex& v) { return plainConnectionEnd(v); }
 
 private:
     bool selectMollified(Technique& tech) const;

@@ -1,6 +1,7 @@
 #include "integrators/transport/light_paths.h"
 #include "integrators/transport/jg19.h"
 #include "integrators/transport/kd13.h"
+#include "integrators/transport/opsr.h"
 #include <tbb/parallel_for.h>
 
 namespace lt {
@@ -90,5 +91,6 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
 template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::None&);
 template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Jg19&);
 template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Kd13&);
+template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Opsr&);
 
 }  // namespace lt

@@ -158,10 +158,18 @@ Opsr::Opsr(const OpsrSettings& settings) : settings_(settings) {
             fmt::format("OPSR: lambda of the consistent offset must be in (0, 1/2), got {}", settings.lambda));
 }
 
-void Opsr::beginIteration(uint64_t n, const Scene& scene, const MisConfig&) {
+void Opsr::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) {
     n_ = n;
     hittableLight_ = false;
-    for (const Light& l : scene.lights()) hittableLight_ = hittableLight_ || l.isHittable();
+    bool allHittable = true;
+    for (const Light& l : scene.lights()) {
+        hittableLight_ = hittableLight_ || l.isHittable();
+        allHittable = allHittable && l.isHittable();
+    }
+    set_ = cfg.set;
+    merging_ = cfg.merging;
+    // (5): with the emitter hit and only lights it can hit, every path is samplable.
+    smoothEnds_ = !settings_.bidirectional || !(allowsTechnique(cfg.set, 0, 2) && allHittable);
 }
 
 double Opsr::offsetScale() const {
@@ -176,14 +184,85 @@ float Opsr::request(const PathVertex* path, int count) const {
     if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return -1.f;
     std::array<float, kMaxPathVertices> a;
     for (int j = 1; j < count; ++j) a[j - 1] = path[j].roughness;
+    return requestWith(v, a.data(), count - 1);
+}
+
+float Opsr::requestWith(const PathVertex& v, const float* a, int count) const {
     const float own = v.roughness;
-    float g = opsr::accumulatedRoughness(a.data(), count - 1, settings_.attenuation);
+    float g = opsr::accumulatedRoughness(a, count, settings_.attenuation);
     if (settings_.consistent) g = own + float(double(g - own) * offsetScale());
     if (!(g > own)) return -1.f;
     return detail::requestCanChange(v, contextFor(TransportMode::Radiance, g)) ? g : -1.f;
 }
 
+namespace {
+
+// The vertices of the path a technique evaluates, x_0 (the light end) .. x_{n-1} (the camera);
+// a merge's x_i is its camera vertex (the photon's vertex y[i] is not on the path).
+struct PathView {
+    const Technique& tech;
+    int lightCount, n;
+    explicit PathView(const Technique& t) : tech(t), lightCount(t.photon ? t.s - 1 : t.s), n(lightCount + t.t) {}
+    const PathVertex& operator[](int j) const { return j < lightCount ? tech.y[j] : tech.z[n - 1 - j]; }
+    // The direction from x_j to its path neighbour x_k (k = j +- 1); a merge joins x_{i-1} to the
+    // photon's position, and its camera vertex x_i looks along the photon's wo (as merge() does).
+    Vec3 direction(int j, int k) const {
+        if (tech.photon && j == lightCount - 1 && k == lightCount) return glm::normalize(tech.y[tech.s - 1].p - (*this)[j].p);
+        if (tech.photon && j == lightCount && k == lightCount - 1) return tech.y[tech.s - 1].wo;
+        return glm::normalize((*this)[k].p - (*this)[j].p);
+    }
+};
+
+}  // namespace
+
+float Opsr::requestFrom(const Technique& tech, int j, End side) const {
+    const PathView x(tech);
+    const PathVertex& v = x[j];
+    if (j < 1 || j > x.n - 2 || !mayChange(v)) return -1.f;
+    if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return -1.f;
+    std::array<float, kMaxPathVertices> a;
+    int count = 0;
+    if (side == End::Light)
+        for (int i = 1; i <= j; ++i) a[count++] = x[i].roughness;
+    else
+        for (int i = x.n - 2; i >= j; --i) a[count++] = x[i].roughness;
+    return requestWith(v, a.data(), count);
+}
+
+Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
+    SmoothChoice best;
+    if (samplableUnregularised(tech, set_, merging_)) return best;
+    const PathView x(tech);
+    const int n = x.n;
+    int bestCount = 0;
+    for (int k = 1; k < n; ++k) {
+        if (!allowsTechnique(set_, k, n - k)) continue;
+        SmoothChoice c;
+        c.technique = k;
+        int count = 0;
+        bool possible = true;
+        for (int j : {k - 1, k}) {
+            const PathVertex& v = x[j];
+            if (plainConnectionEnd(v)) continue;
+            const float g = smooth(v) ? requestFrom(tech, j, j == k - 1 ? End::Light : End::Camera) : -1.f;
+            if (g < 0.f) {
+                possible = false;
+                break;
+            }
+            c.ends[count] = j;
+            c.g[count++] = g;
+        }
+        // The fewest smooth ends, then the one nearest the light (the first k).
+        if (possible && (best.technique < 0 || count < bestCount)) {
+            best = c;
+            bestCount = count;
+        }
+    }
+    return best;
+}
+
 bool Opsr::selectRequest(Technique& tech) const {
+    if (settings_.bidirectional) return selectBidirectional(tech);
     if (tech.s == 0) {
         // The emitter hit through z[t-2] (x_1): the regularised sample's where the request changes
         // it, the walk's own elsewhere.
@@ -209,6 +288,31 @@ bool Opsr::selectRequest(Technique& tech) const {
     return end(tech.y, tech.s, tech.s - 1) && end(tech.z, tech.t, tech.s);
 }
 
+bool Opsr::selectBidirectional(Technique& tech) const {
+    // (5) A connection (select() answered emitter hits and merges).
+    const PathVertex &a = tech.y[tech.s - 1], &b = tech.z[tech.t - 1];
+    int m = 0;
+    if (smooth(a) || smooth(b)) {
+        const SmoothChoice c = chooseSmooth(tech);
+        if (c.technique != tech.s) return false;  // samplable, or another technique's path
+        for (int i = 0; i < 2; ++i)
+            if (c.ends[i] >= 0) {
+                tech.regularised[m] = c.ends[i];
+                tech.bound[m++] = c.g[i];
+            }
+    }
+    // Glossy ends: each with its own subpath's roughness.
+    if (!smooth(a) && a.kind == VertexKind::Surface) {
+        const float g = request(tech.y, tech.s);
+        if (g >= 0.f) tech.regularised[m] = tech.s - 1, tech.bound[m++] = g;
+    }
+    if (!smooth(b) && b.kind == VertexKind::Surface) {
+        const float g = request(tech.z, tech.t);
+        if (g >= 0.f) tech.regularised[m] = tech.s, tech.bound[m++] = g;
+    }
+    return (smooth(a) || a.connectible()) && (smooth(b) || b.connectible());
+}
+
 bool Opsr::emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) const {
     const float g = request(z, t);
     if (g < 0.f) return false;
@@ -217,6 +321,7 @@ bool Opsr::emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) co
 }
 
 void Opsr::densities(const Technique& tech, PathPdfs& P) const {
+    if (settings_.bidirectional) return densitiesBidirectional(tech, P);
     // (4): the path tracer's two techniques, both regularised at x_1 (the camera vertex next to
     // the light): x_1 is a connection end, and the emitter hit's density is the regularised BSDF
     // sample's. For that emitter hit the path tracer wrote it into x_0's fromCamera; for
@@ -238,6 +343,49 @@ void Opsr::densities(const Technique& tech, PathPdfs& P) const {
         P.connectionScale[0] = float(double(pReg) / detail::remapDensity(P.fromCamera[0]));
     }
     P.regularised = true;
+}
+
+void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
+    const PathView x(tech);
+    const int n = P.n, s = tech.s;
+    P.regularised = anyRegularised(tech);
+    for (int j : tech.regularised)
+        if (j >= 0 && smooth(x[j])) {
+            // A smooth vertex regularised: the one technique chosen for this path (5).
+            for (int i : tech.regularised)
+                if (i >= 0) P.delta[i] = false;
+            for (int k = 0; k <= n; ++k) P.connectionScale[k] = k == s ? 1.f : 0.f;
+            for (int i = 0; i < n; ++i) P.mergeScale[i] = 0.f;
+            return;
+        }
+    // Eq. 12: technique k's density is p_k / (R_L(x_{k-1}) R_C(x_k)). The base's own ratios are
+    // connect's; the others are evaluated here, each with its side's roughness (1 where the
+    // request changes nothing; +inf where rho is 0 or a delta: that technique is left out, as a
+    // regularised value of 0 is, Eq. 12's 0/0).
+    auto ratio = [&](int j, End side) -> float {
+        if (j < 1 || j > n - 2) return 1.f;  // the endpoints
+        if (!tech.photon && s >= 1) {
+            if (side == End::Light && j == s - 1) return tech.ratioLight;
+            if (side == End::Camera && j == s) return tech.ratioCamera;
+        }
+        const PathVertex& v = x[j];
+        if (smooth(v) || !mayChange(v)) return 1.f;  // (a smooth one: its delta flag decides)
+        const float g = requestFrom(tech, j, side);
+        if (g < 0.f) return 1.f;
+        const TransportMode mode = modeAt(side);
+        const Vec3 toLight = x.direction(j, j - 1), toCamera = x.direction(j, j + 1);
+        const Vec3 wo = side == End::Light ? toLight : toCamera, wi = side == End::Light ? toCamera : toLight;
+        const SurfaceBsdf b = v.bsdf();
+        return detail::regularisedRatio(b.eval(wo, wi, contextFor(mode, g)).f, b.eval(wo, wi, BsdfContext(mode)).f);
+    };
+    constexpr float kMaxFactor = 1e30f;  // (two ratios near FLT_MIN would overflow the product)
+    P.connectionScale[0] = 1.f;          // the emitter hit: no connection vertex
+    for (int k = 1; k < n; ++k) {
+        const float r = ratio(k - 1, End::Light) * ratio(k, End::Camera);
+        P.connectionScale[k] = r > 0.f && r < kInf ? std::min(1.f / r, kMaxFactor) : 0.f;
+    }
+    P.connectionScale[n] = 0.f;  // (the pinhole: never valid)
+    for (int i = 0; i < n; ++i) P.mergeScale[i] = 1.f;  // merges: not regularised
 }
 
 }  // namespace lt::reg

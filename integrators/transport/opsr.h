@@ -26,7 +26,7 @@
 //     nodes stand; bin centres are our reading.
 // (3) The consistent offset (Sec. 4.2): g_N = a_{k-1} + (g - a_{k-1}) N^-lambda, N the pass (each
 //     pixel takes one sample per pass), lambda in (0, 1/2) (default 1/6).
-// (4) Where (the path tracer; the only integrator with OPSR so far). At next-event estimation
+// (4) Where (the path tracer, as the reference implementation). At next-event estimation
 //     the camera vertex z[t-1] is evaluated with the request minAlpha = g of the camera subpath
 //     z[1..t-1] wherever that changes its BSDF (a smooth vertex with g >= kMinAlpha becomes a rough
 //     GGX lobe, a glossy one with g > its alpha a rougher one). The path tracer's other technique
@@ -39,6 +39,41 @@
 //     densities: the regularised BSDF's density at z[t-1] and the light sample's (densities()).
 //     A smooth vertex with nothing accumulated (g = 0: only smooth vertices before it) stays a
 //     delta: next-event estimation cannot connect there and select() refuses it.
+// (5) Where (BPT, VCM, light tracing: our extension; the paper has the path tracer only). Every
+//     connection end x_j takes the accumulated roughness of its own subpath: g_L(j) over x_1..x_j
+//     for the light end (the light walk's order: x_1 the oldest), g_C(j) over x_{n-2}..x_j for the
+//     camera end. Merges and emitter hits are not regularised (no connection vertex; a merge is
+//     a regularisation of its own). So technique k estimates f_k = f R_L(x_{k-1}) R_C(x_k), R the
+//     ratio rho_hat / rho of the vertex's BSDF between its two path neighbours with that side's g
+//     (1 where the request changes nothing), and the techniques estimate different integrands.
+//     - Glossy ends (a microfacet lobe, alpha < 1): MIS as JG19 Eqs. 12-13 (jg19.h (3)): technique
+//       k's density is p_k / (R_L(x_{k-1}) R_C(x_k)), each ratio at k's own ends with k's own
+//       roughness (densities(): O(1) BSDF evaluations per inner glossy vertex of the path, for the
+//       side the base technique did not evaluate). The weights of the techniques that can sample
+//       a path sum to one, each f_k is finite, and the combination lies between them.
+//     - Smooth ends (a conductor or dielectric with a delta BSDF): own-end regularisation and
+//       Eq. 12 would count light twice. A technique that samples through the smooth vertex (a
+//       walk follows its delta) puts the sharp light on the path that is exactly specular there;
+//       a technique that connects there with a rough lobe puts a blurred copy on the paths next
+//       to it, which no other technique can produce, so both keep weight 1 (JG19 measured +71% on
+//       point-in-glass BPT this way: jg19.h (2)). So at smooth vertices OPSR is selective as KD13
+//       (kd13.h (1)-(2)): a smooth end is regularised only on a path that no technique of the
+//       running integrator samples without a regulariser (samplableUnregularised: a caustic of an
+//       area light keeps BPT's sharp, unbiased estimate), and then by one technique: of the
+//       connections whose smooth ends the request makes rough (g_L or g_C >= kMinAlpha, with the
+//       roughness accumulated on that side), the one with the fewest smooth ends, then the one
+//       nearest the light (the fewest light vertices; for a point light behind glass after a
+//       rough vertex: next-event estimation at the glass, the path tracer's and the paper's
+//       setting, for which the reference tables were learnt). It has weight 1; its glossy end, if
+//       any, takes its own roughness too. (KD13's longest connection is ours no longer: its cone
+//       narrows with the connection's length, OPSR's roughness does not, and on
+//       scenes/hard/caustic-mirror.xml that rule chose light tracing at the mirror next to the
+//       camera, which blurred everything seen in the mirror, horizon and caustic gone.) A path
+//       whose smooth vertices only ever see smooth ones from both sides (a point light seen
+//       through glass: L S S E) stays unrendered, as in the path tracer.
+//     This differs from (4): the path tracer regularises next-event estimation at a smooth vertex
+//     after a rough one whatever the light (the reference's choice), BPT only where nothing else
+//     samples the path. With an area light, BPT keeps the sharp caustic the path tracer blurs.
 #pragma once
 #include <array>
 #include <cstdint>
@@ -96,6 +131,7 @@ struct OpsrSettings {
     opsr::Attenuation attenuation;
     bool consistent = false;  // (3)
     double lambda = -1.0;     // < 0: 1/6
+    bool bidirectional = false;  // (5) BPT, VCM, light tracing; else the path tracer (4)
 };
 
 class Opsr {
@@ -113,6 +149,20 @@ public:
     // request would not change that vertex's BSDF (g not above its roughness, a BSDF that ignores
     // requests, or a smooth one the request leaves a delta).
     float request(const PathVertex* path, int count) const;
+    // (5) The same at x_j of the path of `tech` (x_0 the light end), for the subpath that reaches
+    // it from `side`'s endpoint: x_0..x_j (End::Light) or x_{n-1}..x_j (End::Camera).
+    float requestFrom(const Technique& tech, int j, End side) const;
+    // (5) Tests without a scene: the running integrator's techniques (beginIteration sets them).
+    void setTechniques(TechniqueSet set, bool merging) { set_ = set, merging_ = merging; }
+    // (5) The technique that regularises the smooth vertices of the path of connection `tech`
+    // (its number of light vertices; -1: none, the path is samplable or no connection's smooth
+    // ends can be made rough), its smooth ends (x indices, -1: none) and their roughness.
+    struct SmoothChoice {
+        int technique = -1;
+        int ends[2] = {-1, -1};
+        float g[2] = {-1.f, -1.f};
+    };
+    SmoothChoice chooseSmooth(const Technique& tech) const;
 
     // The seam (regularizer.h).
     BsdfContext context(const Technique& tech, End end) const {
@@ -126,22 +176,37 @@ public:
         return c;
     }
     static constexpr bool kPerTechnique = true;
-    bool perTechnique(const Technique& tech) const { return anyRegularised(tech); }
-    void densities(const Technique& tech, PathPdfs& pdfs) const;
-    void start(PathVertex&) const {}
-    void extend(PathVertex&, PathVertex&) const {}
-    // Smooth surface vertices too: whether the request makes one rough depends on the subpath
-    // (select decides).
-    bool connectible(const PathVertex& v) const {
-        return v.connectible() || (v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.deltaBsdf);
+    // The path tracer (4): where its connection vertex is regularised. BPT and VCM (5): also where
+    // another technique's end may be, i.e. the path has a glossy surface vertex (the subpaths
+    // count them: SubpathState::accumulated).
+    bool perTechnique(const Technique& tech) const {
+        if (anyRegularised(tech)) return true;
+        if (!settings_.bidirectional) return false;
+        const float glossy = (tech.s >= 1 && tech.y ? tech.y[tech.s - 1].regState.accumulated : 0.f) +
+                             (tech.t >= 1 ? tech.z[tech.t - 1].regState.accumulated : 0.f);
+        return glossy > 0.f;
     }
+    void densities(const Technique& tech, PathPdfs& pdfs) const;
+    // SubpathState::accumulated: the number of glossy surface vertices (a microfacet lobe a request
+    // may change, mayChange and not smooth) of the subpath up to this one, for perTechnique.
+    void start(PathVertex& v) const { v.regState.accumulated = 0.f; }
+    void extend(PathVertex& v, PathVertex& prev) const {
+        v.regState.accumulated = prev.regState.accumulated + (mayChange(v) && !v.deltaBsdf ? 1.f : 0.f);
+    }
+    // Smooth surface vertices too where a connection may end there: whether the request makes one
+    // rough depends on the subpath (select decides). BPT and VCM regularise a smooth end only on
+    // paths no technique samples, and with the emitter hit among the techniques and every light
+    // hittable every path has one (beginIteration).
+    bool connectible(const PathVertex& v) const { return v.connectible() || (smoothEnds_ && smooth(v)); }
     bool mergeable(const PathVertex& v) const { return v.connectible(); }
-    // The common answers inline: an emitter hit or a connection whose vertices no request can
-    // change (mayChange) is unregularised; the rest is the out-of-line form.
+    // The common answers inline: an emitter hit (the path tracer: through a vertex no request can
+    // change; BPT and VCM: any) or a connection whose vertices no request can change (mayChange)
+    // is unregularised; the rest is the out-of-line form.
     bool select(Technique& tech) const {
         tech.regularised[0] = tech.regularised[1] = -1;
         if (tech.photon) return true;
         if (tech.s == 0) {
+            if (settings_.bidirectional) return true;
             if (tech.t < 3 || !mayChange(tech.z[tech.t - 2])) return !tech.regularisedSample;
         } else if (!mayChange(tech.y[tech.s - 1]) && !mayChange(tech.z[tech.t - 1])) {
             return tech.y[tech.s - 1].connectible() && tech.z[tech.t - 1].connectible();
@@ -159,13 +224,25 @@ public:
     static bool mayChange(const PathVertex& v) {
         return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.roughness < 1.f;
     }
+    // A smooth surface vertex (a delta BSDF, not at infinity).
+    static bool smooth(const PathVertex& v) {
+        return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.deltaBsdf;
+    }
 
 private:
     bool selectRequest(Technique& tech) const;
+    bool selectBidirectional(Technique& tech) const;
+    void densitiesBidirectional(const Technique& tech, PathPdfs& pdfs) const;
     bool emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) const;
+    // The request for the roughnesses a[0..count-1] of a subpath's surface vertices (a[count-1]
+    // that of v, its last).
+    float requestWith(const PathVertex& v, const float* a, int count) const;
     OpsrSettings settings_;
     uint64_t n_ = 1;
     bool hittableLight_ = true;
+    bool smoothEnds_ = true;  // connectible(): may a connection end at a smooth vertex?
+    TechniqueSet set_ = TechniqueSet::PathTracer;
+    bool merging_ = false;
 };
 
 }  // namespace lt::reg

@@ -142,4 +142,16 @@ float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
     return sum > 0.0 ? float(own * own / sum) : 0.f;
 }
 
+bool samplableUnregularised(const Technique& tech, TechniqueSet set, bool merging) {
+    const int s = tech.s, n = s + tech.t;
+    auto vertex = [&](int j) -> const PathVertex& { return j < s ? tech.y[j] : tech.z[n - 1 - j]; };
+    if (allowsTechnique(set, 0, n) && tech.y[0].light && tech.y[0].light->isHittable()) return true;
+    for (int k = 1; k < n; ++k)
+        if (allowsTechnique(set, k, n - k) && plainConnectionEnd(vertex(k - 1)) && plainConnectionEnd(vertex(k)))
+            return true;
+    for (int i = 1; merging && i + 1 < n; ++i)
+        if (plainConnectionEnd(vertex(i))) return true;
+    return false;
+}
+
 }  // namespace lt

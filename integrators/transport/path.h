@@ -350,6 +350,25 @@ inline bool singularPath(const PathVertex* y, int s, const PathVertex* z, int t)
     return true;
 }
 
+// A vertex where an unregularised connection can end: not a delta (a smooth BSDF, a delta light
+// or camera position is one), not a surface point at infinity.
+inline bool plainConnectionEnd(const PathVertex& v) {
+    return v.connectible() && !(v.kind == VertexKind::Surface && v.infinite);
+}
+
+// Whether some technique of the running integrator (its connection set and whether it merges)
+// produces the path of `tech` (a connection, s >= 1) without a regulariser (KD13 Theorem 1: an
+// unbiased local technique needs two neighbouring non-delta vertices where it connects):
+//   - the emitter hit (s = 0), where the set has it and the light can be hit (area lights, the
+//     background; not a point, spot or directional light);
+//   - connection k (x_{k-1} - x_k), where the set has it and both ends are plainConnectionEnd
+//     (light and camera endpoints always qualify: next-event estimation, light tracing);
+//   - with merging, the merge at a non-delta inner vertex x_i, 1 <= i <= n - 2 (a merge is itself
+//     a regularisation that converges).
+// The regularisers that touch smooth vertices only on paths nothing else samples (KD13, OPSR in
+// BPT and VCM) ask this first.
+bool samplableUnregularised(const Technique& tech, TechniqueSet set, bool merging);
+
 }  // namespace lt
 
 // The inline definitions of sampleLightVertex, connect, the gathers.
