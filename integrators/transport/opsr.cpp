@@ -195,6 +195,16 @@ float Opsr::requestWith(const PathVertex& v, const float* a, int count) const {
     return detail::requestCanChange(v, contextFor(TransportMode::Radiance, g)) ? g : -1.f;
 }
 
+void Opsr::walkRatio(PathVertex& v, const Vec3& wi) const {
+    const PathVertex* path = &v - v.depth;  // (the walk's array: path[0] its endpoint)
+    const float g = request(path, v.depth + 1);
+    const TransportMode mode = path[0].kind == VertexKind::Camera ? TransportMode::Radiance : TransportMode::Importance;
+    const SurfaceBsdf b = v.bsdf();
+    const Color plain = b.eval(v.wo, wi, BsdfContext(mode)).f;
+    v.regState.rhoBar = plain.x + plain.y + plain.z;
+    if (g >= 0.f) v.regState.ratio = detail::regularisedRatio(b.eval(v.wo, wi, contextFor(mode, g)).f, plain);
+}
+
 namespace {
 
 // The vertices of the path a technique evaluates, x_0 (the light end) .. x_{n-1} (the camera);
@@ -362,6 +372,10 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
     // connect's; the others are evaluated here, each with its side's roughness (1 where the
     // request changes nothing; +inf where rho is 0 or a delta: that technique is left out, as a
     // regularised value of 0 is, Eq. 12's 0/0).
+    // Inner vertices of a subpath (both path neighbours on its walk) have their own side's ratio
+    // and rho from the walk (SubpathState); the other side's rho_hat is evaluated in the walk's
+    // mode and directions, over that rho.
+    const int lc = x.lightCount;
     auto ratio = [&](int j, End side) -> float {
         if (j < 1 || j > n - 2) return 1.f;  // the endpoints
         if (!tech.photon && s >= 1) {
@@ -369,13 +383,21 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
             if (side == End::Camera && j == s) return tech.ratioCamera;
         }
         const PathVertex& v = x[j];
-        if (smooth(v) || !mayChange(v)) return 1.f;  // (a smooth one: its delta flag decides)
+        if (!glossy(v)) return 1.f;  // (a smooth one: its delta flag decides)
+        const bool onLightWalk = j < lc - 1, onCameraWalk = j > lc;
+        if ((side == End::Light && onLightWalk) || (side == End::Camera && onCameraWalk)) return v.regState.ratio;
         const float g = requestFrom(tech, j, side);
         if (g < 0.f) return 1.f;
+        const SurfaceBsdf b = v.bsdf();
+        if (onLightWalk || onCameraWalk) {
+            const TransportMode mode = onLightWalk ? TransportMode::Importance : TransportMode::Radiance;
+            const Vec3 wi = x.direction(j, onLightWalk ? j + 1 : j - 1);
+            const Color hat = b.eval(v.wo, wi, contextFor(mode, g)).f;
+            return detail::regularisedRatio(hat.x + hat.y + hat.z, v.regState.rhoBar);
+        }
         const TransportMode mode = modeAt(side);
         const Vec3 toLight = x.direction(j, j - 1), toCamera = x.direction(j, j + 1);
         const Vec3 wo = side == End::Light ? toLight : toCamera, wi = side == End::Light ? toCamera : toLight;
-        const SurfaceBsdf b = v.bsdf();
         return detail::regularisedRatio(b.eval(wo, wi, contextFor(mode, g)).f, b.eval(wo, wi, BsdfContext(mode)).f);
     };
     constexpr float kMaxFactor = 1e30f;  // (two ratios near FLT_MIN would overflow the product)

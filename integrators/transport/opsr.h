@@ -48,9 +48,11 @@
 //     (1 where the request changes nothing), and the techniques estimate different integrands.
 //     - Glossy ends (a microfacet lobe, alpha < 1): MIS as JG19 Eqs. 12-13 (jg19.h (3)): technique
 //       k's density is p_k / (R_L(x_{k-1}) R_C(x_k)), each ratio at k's own ends with k's own
-//       roughness (densities(): O(1) BSDF evaluations per inner glossy vertex of the path, for the
-//       side the base technique did not evaluate). The weights of the techniques that can sample
-//       a path sum to one, each f_k is finite, and the combination lies between them.
+//       roughness. Each inner glossy vertex has its own side's R and its rho from its walk
+//       (extend); densities() evaluates its other side's rho_hat (one BSDF evaluation per inner
+//       glossy vertex per connection, two at the connection's ends). The weights of the
+//       techniques that can sample a path sum to one, each f_k is finite, and the combination
+//       lies between them.
 //     - Smooth ends (a conductor or dielectric with a delta BSDF): own-end regularisation and
 //       Eq. 12 would count light twice. A technique that samples through the smooth vertex (a
 //       walk follows its delta) puts the sharp light on the path that is exactly specular there;
@@ -187,11 +189,22 @@ public:
         return glossy > 0.f;
     }
     void densities(const Technique& tech, PathPdfs& pdfs) const;
-    // SubpathState::accumulated: the number of glossy surface vertices (a microfacet lobe a request
-    // may change, mayChange and not smooth) of the subpath up to this one, for perTechnique.
-    void start(PathVertex& v) const { v.regState.accumulated = 0.f; }
+    // SubpathState (BPT, VCM: (5)): accumulated, the number of glossy surface vertices (a
+    // microfacet lobe a request may change: glossy()) of the subpath up to this one, for
+    // perTechnique; at a glossy vertex the walk has left, ratio = rho_hat / rho between its two
+    // walk neighbours with its own subpath's roughness (1 where that changes nothing) and rhoBar =
+    // rho there (the channel sum, in the walk's transport mode; 0 elsewhere), so densities()
+    // evaluates only the other side's rho_hat there. The path tracer needs none of it.
+    void start(PathVertex& v) const {
+        v.regState.accumulated = 0.f;
+        v.regState.ratio = 1.f;
+        v.regState.rhoBar = 0.f;
+    }
     void extend(PathVertex& v, PathVertex& prev) const {
-        v.regState.accumulated = prev.regState.accumulated + (mayChange(v) && !v.deltaBsdf ? 1.f : 0.f);
+        v.regState.accumulated = prev.regState.accumulated + (glossy(v) ? 1.f : 0.f);
+        v.regState.ratio = 1.f;
+        v.regState.rhoBar = 0.f;
+        if (settings_.bidirectional && glossy(prev) && prev.depth >= 1) walkRatio(prev, -v.wo);
     }
     // Smooth surface vertices too where a connection may end there: whether the request makes one
     // rough depends on the subpath (select decides). BPT and VCM regularise a smooth end only on
@@ -224,10 +237,12 @@ public:
     static bool mayChange(const PathVertex& v) {
         return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.roughness < 1.f;
     }
-    // A smooth surface vertex (a delta BSDF, not at infinity).
+    // A smooth surface vertex (a delta BSDF, not at infinity), and a glossy one (a lobe a request
+    // may make rougher, not smooth).
     static bool smooth(const PathVertex& v) {
         return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.deltaBsdf;
     }
+    static bool glossy(const PathVertex& v) { return mayChange(v) && !v.deltaBsdf; }
 
 private:
     bool selectRequest(Technique& tech) const;
@@ -237,6 +252,9 @@ private:
     // The request for the roughnesses a[0..count-1] of a subpath's surface vertices (a[count-1]
     // that of v, its last).
     float requestWith(const PathVertex& v, const float* a, int count) const;
+    // SubpathState::ratio and rhoBar of the glossy walk vertex v (its walk's vertices are
+    // contiguous: v.depth is its index), towards its successor in direction wi.
+    void walkRatio(PathVertex& v, const Vec3& wi) const;
     OpsrSettings settings_;
     uint64_t n_ = 1;
     bool hittableLight_ = true;

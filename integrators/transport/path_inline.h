@@ -17,11 +17,13 @@ inline double remapDensity(float p) { return p != 0.f ? double(p) : 1.0; }
 // rho_hat / rho of one BSDF evaluation pair, as a scalar (the means of the channels): +inf when rho
 // is 0 and rho_hat is not (a delta lobe evaluates to 0), exactly 1 when the two are equal (no
 // regularisation there, both 0 included).
-inline float regularisedRatio(const Color& hat, const Color& plain) {
-    const float p = plain.x + plain.y + plain.z, h = hat.x + hat.y + hat.z;
+inline float regularisedRatio(float h, float p) {
     if (h == p) return 1.f;
     if (!(p > 0.f)) return kInf;
     return h / p;
+}
+inline float regularisedRatio(const Color& hat, const Color& plain) {
+    return regularisedRatio(hat.x + hat.y + hat.z, plain.x + plain.y + plain.z);
 }
 
 // The MIS sum (see misSumGeneral in path.cpp) for the path tracer's two techniques (s = 0: emitter
