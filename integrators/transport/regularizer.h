@@ -43,7 +43,7 @@
 //        written; extend(v, prev): at every vertex a walk adds, from the vertex it came from
 //        (prev's lobe is known then; v's densities are not yet). Both write v.regState, a
 //        SubpathState: what a regulariser accumulates along a subpath (JG19's diffusion, OPSR's
-//        product of (1 - gamma alpha_i)); extend may also complete prev's state, whose two
+//        count of glossy vertices in BPT and VCM); extend may also complete prev's state, whose two
 //        neighbours are known from then on (JG19's ratio rho_hat / rho at prev). None writes
 //        nothing (the field is left as it was).
 //
@@ -83,7 +83,8 @@ struct Photon;
 struct MisConfig;
 class Scene;
 
-// Per-subpath state of a regulariser on every vertex (PathVertex::regState). Nine floats: the
+// Per-subpath state of a regulariser on every vertex (PathVertex::regState; the comments give
+// JG19's meanings, OPSR uses accumulated, ratio and rhoBar its own way: opsr.h). Nine floats: the
 // record is 176 bytes with them (168 with eight, 160 with six, 144 with two, which fit the tail
 // padding).
 struct SubpathState {
