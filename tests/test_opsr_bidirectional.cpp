@@ -263,7 +263,7 @@ TEST_CASE("OPSR in BPT and VCM: MIS weights equal a brute-force evaluation (Eq. 
                         << " on paths no technique samples, " << merges << " merges; worst " << worst);
         CHECK(checked > 3000);
         CHECK(factored > 500);
-        CHECK(factorsNotOne > 500);
+        CHECK(factorsNotOne > 300);
         if (!merging) CHECK(smoothChosen > 10);
         if (merging) CHECK(merges > 200);
     }

@@ -403,6 +403,12 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
     constexpr float kMaxFactor = 1e30f;  // (two ratios near FLT_MIN would overflow the product)
     P.connectionScale[0] = 1.f;          // the emitter hit: no connection vertex
     for (int k = 1; k < n; ++k) {
+        // (a technique the integrator does not run, or one ending at a delta vertex, is not
+        // counted whatever its factor: path.cpp's sum skips it)
+        if (!allowsTechnique(set_, k, n - k) || P.delta[k - 1] || P.delta[k]) {
+            P.connectionScale[k] = 0.f;
+            continue;
+        }
         const float r = ratio(k - 1, End::Light) * ratio(k, End::Camera);
         P.connectionScale[k] = r > 0.f && r < kInf ? std::min(1.f / r, kMaxFactor) : 0.f;
     }
