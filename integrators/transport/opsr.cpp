@@ -262,10 +262,12 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
             c.ends[count] = j;
             c.g[count++] = g;
         }
-        // The fewest smooth ends, then the one nearest the light (the first k).
+        // The fewest smooth ends, then the one nearest the light (the first k). (On a path no
+        // technique samples every candidate has a smooth end, so the first with one is the choice.)
         if (possible && (best.technique < 0 || count < bestCount)) {
             best = c;
             bestCount = count;
+            if (count == 1) break;
         }
     }
     return best;
