@@ -80,8 +80,17 @@ struct RegularizationRequest {
 struct BsdfContext {
     TransportMode mode = TransportMode::Radiance;
     RegularizationRequest reg;
+    // eval() may leave the densities 0: the caller reads the value only (a regulariser's ratio
+    // rho_hat / rho, evaluated per technique). The value is the same bit for bit.
+    bool valueOnly = false;
     constexpr BsdfContext(TransportMode m = TransportMode::Radiance) : mode(m) {}
     constexpr BsdfContext(TransportMode m, const RegularizationRequest& r) : mode(m), reg(r) {}
+    // This context for a value-only evaluation.
+    constexpr BsdfContext valueOnlyCopy() const {
+        BsdfContext c = *this;
+        c.valueOnly = true;
+        return c;
+    }
 };
 // The two contexts without a request, for the walks and connections (a reference to one of
 // these is passed, no context is built per call).

@@ -23,7 +23,7 @@ public:
         if (!rough_ && ctx.reg.cone > 0.f) return evalCone(wo, wi, ctx.reg.cone);  // (whatever else is asked)
         const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
         if (a.delta) return BsdfEval{};
-        return evalRough(lobe_.microfacet(a), wo, wi);
+        return evalRough(lobe_.microfacet(a), wo, wi, ctx.valueOnly);
     }
 
     bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
@@ -84,7 +84,7 @@ private:
     }
 
     // The rough lobe with the alphas of one call (the material's, or the regularised ones).
-    BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi) const {
+    BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi, bool valueOnly = false) const {
         BsdfEval e;
         if (!(wo.z > 0.f) || !(wi.z > 0.f)) return e;
         Vec3 h = wo + wi;
@@ -95,6 +95,7 @@ private:
         if (!(base > 0.f)) return e;
         // Fresnel at the average of wo.h and wi.h (equal up to rounding): exactly reciprocal.
         e.f = specR_ * fresnelConductor(0.5f * (glm::dot(wo, h) + glm::dot(wi, h)), eta_, k_) * base;
+        if (valueOnly) return e;
         e.pdfFwd = SolidAnglePdf(pdfReflect(mf, wo, h));
         e.pdfRev = SolidAnglePdf(pdfReflect(mf, wi, h));
         return e;

@@ -35,7 +35,7 @@ public:
         // The request resolved for the lobe of this pair (reflection or transmission).
         const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, !(wo.z * wi.z > 0.f), eta_);
         if (a.delta) return BsdfEval{};
-        return evalRough(lobe_.microfacet(a), wo, wi, ctx.mode);
+        return evalRough(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
     }
 
     bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
@@ -168,7 +168,8 @@ private:
 
     // The rough lobes with the alphas of one call (the material's, or the regularised ones), for
     // wo.z != 0, wi.z != 0 and eta != 1.
-    BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi, TransportMode mode) const {
+    BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi, TransportMode mode,
+                       bool valueOnly = false) const {
         BsdfEval e;
         if (wo.z * wi.z > 0.f) {
             const Vec3 h = glm::normalize(wo + wi);
@@ -178,6 +179,7 @@ private:
             if (!g.valid) return e;
             e.f = specT_ * ((1.f - g.F) * microfacetTransmission(mf, wo, wi, eta_, mode));
         }
+        if (valueOnly) return e;
         e.pdfFwd = SolidAnglePdf(pdfImpl(mf, wo, wi));
         e.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo));
         return e;

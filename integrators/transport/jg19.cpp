@@ -84,7 +84,8 @@ void Jg19::surfaceBounds(const PathVertex& v, float& plain, float& regularised) 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {
     if (!detail::requestCanChange(v, radiance_)) return 1.f;
     const SurfaceBsdf b = v.bsdf();
-    return detail::regularisedRatio(b.eval(v.wo, wi, radiance_).f, b.eval(v.wo, wi, kRadianceContext).f);
+    return detail::regularisedRatio(b.eval(v.wo, wi, radiance_.valueOnlyCopy()).f,
+                                    b.eval(v.wo, wi, kRadianceContext.valueOnlyCopy()).f);
 }
 
 namespace {

@@ -200,9 +200,10 @@ void Opsr::walkRatio(PathVertex& v, const Vec3& wi) const {
     const float g = request(path, v.depth + 1);
     const TransportMode mode = path[0].kind == VertexKind::Camera ? TransportMode::Radiance : TransportMode::Importance;
     const SurfaceBsdf b = v.bsdf();
-    const Color plain = b.eval(v.wo, wi, BsdfContext(mode)).f;
+    const Color plain = b.eval(v.wo, wi, BsdfContext(mode).valueOnlyCopy()).f;
     v.regState.rhoBar = plain.x + plain.y + plain.z;
-    if (g >= 0.f) v.regState.ratio = detail::regularisedRatio(b.eval(v.wo, wi, contextFor(mode, g)).f, plain);
+    if (g >= 0.f)
+        v.regState.ratio = detail::regularisedRatio(b.eval(v.wo, wi, contextFor(mode, g).valueOnlyCopy()).f, plain);
 }
 
 namespace {
@@ -394,13 +395,14 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
         if (onLightWalk || onCameraWalk) {
             const TransportMode mode = onLightWalk ? TransportMode::Importance : TransportMode::Radiance;
             const Vec3 wi = x.direction(j, onLightWalk ? j + 1 : j - 1);
-            const Color hat = b.eval(v.wo, wi, contextFor(mode, g)).f;
+            const Color hat = b.eval(v.wo, wi, contextFor(mode, g).valueOnlyCopy()).f;
             return detail::regularisedRatio(hat.x + hat.y + hat.z, v.regState.rhoBar);
         }
         const TransportMode mode = modeAt(side);
         const Vec3 toLight = x.direction(j, j - 1), toCamera = x.direction(j, j + 1);
         const Vec3 wo = side == End::Light ? toLight : toCamera, wi = side == End::Light ? toCamera : toLight;
-        return detail::regularisedRatio(b.eval(wo, wi, contextFor(mode, g)).f, b.eval(wo, wi, BsdfContext(mode)).f);
+        return detail::regularisedRatio(b.eval(wo, wi, contextFor(mode, g).valueOnlyCopy()).f,
+                                        b.eval(wo, wi, BsdfContext(mode).valueOnlyCopy()).f);
     };
     constexpr float kMaxFactor = 1e30f;  // (two ratios near FLT_MIN would overflow the product)
     P.connectionScale[0] = 1.f;          // the emitter hit: no connection vertex
