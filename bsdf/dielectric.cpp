@@ -93,15 +93,16 @@ public:
             if (!refractAbout(o, m, etaRel, i) || !(i.z < 0.f)) return false;
         }
         const Vec3 wi = i * s;
-        const BsdfEval e = evalRough(mf, wo, wi, mode);
-        if (!(e.pdfFwd.value > 0.f) || !std::isfinite(e.pdfFwd.value)) return false;
+        // The densities only (the value is not needed: the weight below is its closed form).
+        const float pdfFwd = pdfImpl(mf, wo, wi);
+        if (!(pdfFwd > 0.f) || !std::isfinite(pdfFwd)) return false;
         const float g1 = mf.G1(o, m);
         if (!(g1 > 0.f)) return false;
         // f cos / pdf simplifies to spec * G2 / G1(wo) (times 1/etap^2 for radiance refraction).
         const float ratio = mf.G2(o, i, m) / g1;
         out.wi = wi;
-        out.pdfFwd = e.pdfFwd;
-        out.pdfRev = e.pdfRev;
+        out.pdfFwd = SolidAnglePdf(pdfFwd);
+        out.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo));
         if (reflect) {
             out.weight = specR_ * ratio;
             out.lobe = kReflection | kGlossy;
