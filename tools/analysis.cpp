@@ -84,6 +84,37 @@ const std::string& oneOf(const std::string& spec, const std::string& opt, const 
 
 }  // namespace
 
+void parseSweep(const std::string& spec, std::string& option, std::vector<double>& values) {
+    const size_t eq = spec.find('=');
+    if (eq == std::string::npos)
+        throw std::invalid_argument(fmt::format("'{}' is not OPTION=V1,V2,... (no '=')", spec));
+    option = spec.substr(0, eq);
+    while (!option.empty() && option[0] == '-') option.erase(0, 1);
+    if (option.empty() || !std::all_of(option.begin(), option.end(), [](char ch) {
+            return std::isalnum(static_cast<unsigned char>(ch)) || ch == '-';
+        }))
+        throw std::invalid_argument(fmt::format("'{}': the option before '=' must be a word such as reg-tau", spec));
+    values.clear();
+    std::stringstream list(spec.substr(eq + 1));
+    for (std::string item; std::getline(list, item, ',');) {
+        size_t used = 0;
+        double v = 0.0;
+        try {
+            v = std::stod(item, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used == 0 || used != item.size() || !std::isfinite(v) || !(v > 0.0))
+            throw std::invalid_argument(
+                fmt::format("'{}': value '{}' is not a finite number > 0 (the values are plotted on a log axis)", spec, item));
+        values.push_back(v);
+    }
+    if (values.empty()) throw std::invalid_argument(fmt::format("'{}': no values after '='", spec));
+    std::sort(values.begin(), values.end());
+    if (std::adjacent_find(values.begin(), values.end()) != values.end())
+        throw std::invalid_argument(fmt::format("'{}': a value is given twice", spec));
+}
+
 RunConfig parseConfig(const std::string& spec) {
     std::vector<std::string> w = tokenize(spec);
     if (w.empty()) throw std::invalid_argument("empty configuration");

@@ -47,6 +47,10 @@ struct RunConfig {
 
 // Throws std::invalid_argument with a message naming the offending word.
 RunConfig parseConfig(const std::string& spec);
+// A sweep "OPTION=V1,V2,..." (biasvar --sweep): the option without its leading "--" (a word of
+// letters, digits and '-') and its values, each a finite number > 0 (they are plotted on a log
+// axis), sorted, distinct. Throws std::invalid_argument naming the part that is wrong.
+void parseSweep(const std::string& spec, std::string& option, std::vector<double>& values);
 // JSON file: either ["pt", "pt --pt-strategy bsdf"] or {"configs": [...]} whose entries are
 // strings or objects {"config": "pt --pt-strategy bsdf", "label": "PT (BSDF only)"}.
 std::vector<RunConfig> readConfigFile(const std::string& path);

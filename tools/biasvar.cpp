@@ -6,6 +6,12 @@
 // bias^2 = 0 and the check MSE = bias^2 + variance; over the levels, one gnuplot plot of
 // bias^2, variance and the bias^2 noise floor against spp. See docs/tools.md.
 //
+// Sweep (--sweep OPTION=V1,V2,...): every configuration runs once per value with `--OPTION V`
+// appended (a bandwidth: reg-tau, reg-r0, reg-opsr-gamma, radius, ...), labelled "LABEL
+// OPTION=V"; besides the per-configuration outputs, sweep.csv (one row per configuration, value
+// and spp: bias^2, variance, MSE) and the plot sweep.png/.svg: MSE against the value, one curve
+// per configuration and spp (OPSR Fig. 7).
+//
 // bias^2 estimator: E[(mean - ref)^2] = bias^2 + var/K, so bias2_hat = (mean - ref)^2 - var_hat/K is
 // unbiased (var_hat the unbiased sample variance of one render); it is negative about half the
 // time for an unbiased method. Its standard error over pixels gives the noise floor.
@@ -55,6 +61,7 @@ int main(int argc, char** argv) {
     uint64_t seed = 1000;
     double zCrit = 3.29;
     bool absolutePlot = false;
+    std::string sweepSpec;
     app.add_option("scene", scenePath, "Scene file (Mitsuba 3 XML)")->required();
     app.add_option("-r,--reference", refPath, "Reference image (.exr/.pfm/.hdr) of the same size")->required();
     app.add_option("-c,--config", specs, "Configuration, e.g. \"pt\" or \"vcm --radius 0.01\" (repeatable)")->allow_extra_args(false);
@@ -71,6 +78,10 @@ int main(int argc, char** argv) {
     app.add_option("-o,--output-dir", outDir, "Output folder (default out/biasvar/<scene name>)");
     app.add_option("--z", zCrit, "Two-sided critical |z| for the tests (default 3.29: significance 0.001)")
         ->check(CLI::PositiveNumber);
+    app.add_option("--sweep", sweepSpec,
+                   "OPTION=V1,V2,...: run every configuration once per value with --OPTION V appended (e.g. "
+                   "reg-tau=10,30,100 or reg-opsr-gamma=0.01,0.1,0.5); adds sweep.csv and the plot sweep.png/.svg "
+                   "(MSE against the value per configuration and spp)");
     app.add_flag("--absolute", absolutePlot, "Plot the absolute figures (default: relative, divided by ref^2 + 0.01)");
     app.footer("Outputs: <dir>/<config>/spp<N>/{mean,variance,bias2,mse}.exr and .png (false colour, log scale), "
                "<dir>/biasvar.json, <dir>/biasvar.png/.svg (+ .gp, .dat).\n"
@@ -88,6 +99,35 @@ int main(int argc, char** argv) {
     std::vector<RunConfig> configs;
     std::map<std::string, std::string> defines;
     if (int rc = parseRunInputs("biasvar", defineList, specs, configFile, defines, configs)) return rc;
+    // The sweep: each configuration once per value (sweepBase[i]: the index of expanded
+    // configuration i's configuration, sweepValue[i] its value).
+    std::string sweepOption;
+    std::vector<double> sweepValues;
+    std::vector<size_t> sweepBase;
+    std::vector<std::string> baseLabels;
+    if (!sweepSpec.empty()) {
+        try {
+            parseSweep(sweepSpec, sweepOption, sweepValues);
+            std::vector<RunConfig> expanded;
+            for (size_t b = 0; b < configs.size(); ++b) {
+                baseLabels.push_back(configs[b].label);
+                for (double v : sweepValues) {
+                    RunConfig c = parseConfig(fmt::format("{} --{} {}", configs[b].spec, sweepOption, v));
+                    if (c.extra.count(sweepOption))
+                        throw std::invalid_argument(fmt::format(
+                            "--{} is not a configuration option (those of docs/tools.md: --reg-tau, --reg-r0, "
+                            "--reg-lambda, --reg-opsr-gamma, --radius, ...)", sweepOption));
+                    c.label = fmt::format("{} {}={}", configs[b].label, sweepOption, v);
+                    expanded.push_back(c);
+                    sweepBase.push_back(b);
+                }
+            }
+            configs = expanded;
+        } catch (const std::exception& e) {
+            fmt::print(stderr, "biasvar: error: --sweep: {}\n", e.what());
+            return 1;
+        }
+    }
     if (outDir.empty()) outDir = (fs::path("out/biasvar") / fs::path(scenePath).stem()).string();
 
     SceneDesc desc;
@@ -109,6 +149,13 @@ int main(int argc, char** argv) {
     summary["configs"] = nlohmann::json::array();
     std::vector<Panel> panels;
     bool allOk = true;
+    // The plotted figures (relative or absolute, as the plot) of each configuration and level.
+    struct SweepRow {
+        size_t config;
+        uint64_t spp;
+        ImageFigures figures;
+    };
+    std::vector<SweepRow> sweepRows;
     try {
         Scene scene(desc);
         for (size_t ci = 0; ci < configs.size(); ++ci) {
@@ -172,6 +219,7 @@ int main(int argc, char** argv) {
                                "{:.4e}, z = {:+.2f} -> {}\n",
                                "", identity, fe.mse, fo.bias2 + fo.variance, splitZ, ok ? "OK" : "FAILED");
                     if (relative != relativePlot) continue;
+                    sweepRows.push_back(SweepRow{ci, L.spp, f});
                     double x = double(L.spp);
                     cb2.x.push_back(x), cb2.y.push_back(f.bias2);
                     cvar.x.push_back(x), cvar.y.push_back(f.variance);
@@ -216,6 +264,35 @@ int main(int argc, char** argv) {
             if (!pf.ok) fmt::print(stderr, "biasvar: warning: no plot: {}\n", pf.message);
             summary["plot_png"] = pf.ok ? nlohmann::json("biasvar.png") : nlohmann::json(nullptr);
             summary["plot_svg"] = pf.ok ? nlohmann::json("biasvar.svg") : nlohmann::json(nullptr);
+        }
+        if (!sweepValues.empty()) {
+            std::string csv = "config,option,value,spp,bias2,variance,mse\n";
+            Panel panel{"MSE against " + sweepOption + "; " + std::to_string(runs) + " runs each", sweepOption,
+                        relativePlot ? "relative MSE: average of x / (ref^2 + 0.01) [dimensionless]"
+                                     : "MSE, average per value [radiance^2]",
+                        true, true, {}};
+            for (size_t b = 0; b < baseLabels.size(); ++b)
+                for (size_t li = 0; li < sppList.size(); ++li) {
+                    Curve c;
+                    c.title = (baseLabels.size() > 1 ? baseLabels[b] + ", " : std::string()) +
+                              std::to_string(sppList[li]) + " spp";
+                    c.color = int(b * sppList.size() + li);
+                    for (const SweepRow& r : sweepRows) {
+                        if (sweepBase[r.config] != b || r.spp != uint64_t(sppList[li])) continue;
+                        const double v = sweepValues[r.config % sweepValues.size()];
+                        c.x.push_back(v), c.y.push_back(r.figures.mse);
+                        csv += fmt::format("\"{}\",{},{},{},{:.9g},{:.9g},{:.9g}\n", baseLabels[b], sweepOption, v, r.spp,
+                                           r.figures.bias2, r.figures.variance, r.figures.mse);
+                    }
+                    panel.curves.push_back(c);
+                }
+            writeTextFile((fs::path(outDir) / "sweep.csv").string(), csv);
+            PlotFiles pf = plot((fs::path(outDir) / "sweep").string(), {panel}, 760,
+                                480 + 20 * int(std::min<size_t>(6, panel.curves.size())));
+            if (!pf.ok) fmt::print(stderr, "biasvar: warning: no sweep plot: {}\n", pf.message);
+            summary["sweep"] = {{"option", sweepOption}, {"values", sweepValues}, {"csv", "sweep.csv"},
+                                {"plot_png", pf.ok ? nlohmann::json("sweep.png") : nlohmann::json(nullptr)},
+                                {"plot_svg", pf.ok ? nlohmann::json("sweep.svg") : nlohmann::json(nullptr)}};
         }
         summary["all_checks_ok"] = allOk;
         writeTextFile((fs::path(outDir) / "biasvar.json").string(), summary.dump(2) + "\n");
