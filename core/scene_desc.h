@@ -57,7 +57,8 @@ struct CameraDesc {
 
 // The values the regularisation parameters accept: the loader (XML), render's options and the
 // analysis tools' configurations check against these lists.
-inline const std::vector<std::string> kRegularizerNames{"none", "jg19", "kd13", "opsr"};
+// "jg19,opsr": OPSR with JG19's bound (integrators/transport/opsr.h (6)).
+inline const std::vector<std::string> kRegularizerNames{"none", "jg19", "kd13", "opsr", "jg19,opsr"};
 inline const std::vector<std::string> kRegScheduleNames{"consistent", "fixed"};
 inline const std::vector<std::string> kRegMisNames{"regularised", "sampling"};
 inline const std::vector<std::string> kRegSpecularNames{"ggx", "cone"};

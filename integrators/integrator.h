@@ -67,7 +67,8 @@ inline bool regDiffusionOf(const RenderSettings& s) { return s.regDiffusion.valu
 inline double regularisationTauOf(const reg::None&) { return 0.0; }
 inline double regularisationTauOf(const reg::Jg19& r) { return r.tau(); }
 inline double regularisationTauOf(const reg::Kd13& r) { return r.radius(1); }  // (KD13: r_N of one vertex)
-inline double regularisationTauOf(const reg::Opsr& r) { return r.offsetScale(); }  // (OPSR: N^-lambda or 1)
+// (OPSR: N^-lambda or 1; with JG19's bound, --reg jg19,opsr: tau_N)
+inline double regularisationTauOf(const reg::Opsr& r) { return r.tau() > 0.f ? double(r.tau()) : r.offsetScale(); }
 
 // JG19's default tau_0 (Sec. 6): 30 for PT and BPT (and LT), 1000 for VCM (and PPM).
 double regTauDefault(const std::string& integrator);

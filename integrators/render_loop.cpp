@@ -84,7 +84,7 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         k.lambda = s.regLambda;
         return makeWith(s, reg::Kd13(k));
     }
-    if (s.regularizer == "opsr") {
+    if (s.regularizer == "opsr" || s.regularizer == "jg19,opsr") {
         if (s.integrator == "ppm")
             throw std::invalid_argument("--reg opsr regularises connection vertices; ppm makes no connections (use pt, bpt, "
                                         "vcm or lt)");
@@ -108,6 +108,18 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         if (s.regLambda >= 0.0 && !s.regOpsrConsistent)
             throw std::invalid_argument("--reg-lambda with --reg opsr sets the consistent offset's exponent: it needs "
                                         "--reg-opsr-consistent");
+        if (s.regularizer == "jg19,opsr") {
+            // (opsr.h (6)) JG19's bound and its schedule; its heuristics and MIS modes are OPSR's here.
+            o.boundTau0 = s.regTau > 0.0 ? s.regTau : regTauDefault(s.integrator);
+            if (s.regSchedule != "consistent" && s.regSchedule != "fixed")
+                throw std::invalid_argument(fmt::format("unknown regularisation schedule '{}' (supported: {})",
+                                                        s.regSchedule, fmt::join(kRegScheduleNames, ", ")));
+            o.boundConsistent = s.regSchedule == "consistent";
+            if (s.regSpecular != "ggx" || s.regMis != "regularised" || s.regDiffusion.value_or(false))
+                throw std::invalid_argument("--reg jg19,opsr takes JG19's bound and schedule only (--reg-tau, "
+                                            "--reg-schedule): OPSR chooses the vertices and the MIS, so "
+                                            "--reg-specular cone, --reg-mis sampling and --reg-diffusion on do not apply");
+        }
         return makeWith(s, reg::Opsr(o));
     }
     throw std::invalid_argument(fmt::format("unknown regulariser '{}' (supported: {})", s.regularizer,

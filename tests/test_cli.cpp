@@ -101,7 +101,12 @@ TEST_CASE("bad command lines exit with 1 and name the problem", "[cli]") {
                           Case{"--reg opsr --reg-opsr-gamma 0.1 --reg-opsr-table x.json", "either"},
                           Case{"--reg opsr --integrator ppm", "ppm makes no connections"},
                           Case{"--reg opsr --reg-lambda 0.2", "needs --reg-opsr-consistent"},
-                          Case{"--reg opsr --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"}}) {
+                          Case{"--reg opsr --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"},
+                          Case{"--reg jg19,opsr --reg-quality off", "bound and schedule only"},
+                          Case{"--reg jg19,opsr --reg-specular cone", "bound and schedule only"},
+                          Case{"--reg jg19,opsr --integrator ppm", "ppm makes no connections"},
+                          Case{"--reg jg19,opsr --reg-tau 0.1", "reg-tau"},
+                          Case{"--reg opsr,jg19", "opsr,jg19"}}) {
         Run r = run(scene + c.args);
         INFO(c.args << "\n" << r.output);
         CHECK(r.code == 1);

@@ -179,7 +179,7 @@ TEST_CASE("biasvar: the PT bias^2 is indistinguishable from zero and a wrong dep
     fs::remove_all(dir);
 }
 
-TEST_CASE("biasvar --sweep: one row per configuration, value and spp; a wider bandwidth trades variance for bias", "[tools][biasvar][sweep]") {
+TEST_CASE("biasvar --sweep: one row per configuration, value and spp, and a wider bandwidth trades variance for bias", "[tools][biasvar][sweep]") {
     // PT+OPSR on the GGX box with the gold block at alpha 0.01 (16^2, max depth 4; reference: PT
     // without a regulariser, 4096 spp), gamma 0.05 and 0.5, 8 runs at 4 and 16 spp. gamma 0.5
     // blurs the block's highlight and the light it throws (the OPSR consistency test measures
@@ -612,7 +612,12 @@ TEST_CASE("configurations: --reg and its knobs reach the settings, bad values ar
     CHECK(s.regularizer == "kd13");
     CHECK(s.regR0 == 0.02);
     CHECK(s.regLambda == 0.0);
-    for (const char* bad : {"pt --reg kd99", "pt --reg-tau 0.1", "pt --reg-tau x", "pt --reg-schedule sometimes",
+    s = makeSettings(desc, parseConfig("pt --reg jg19,opsr --reg-tau 200 --reg-opsr-gamma 0.1"), 1, 3);
+    CHECK(s.regularizer == "jg19,opsr");
+    CHECK(s.regTau == 200.0);
+    CHECK(s.regOpsrGamma == 0.1);
+    CHECK_NOTHROW(lt::makeIntegrator(s));
+    for (const char* bad : {"pt --reg kd99", "pt --reg opsr,jg19", "pt --reg-tau 0.1", "pt --reg-tau x", "pt --reg-schedule sometimes",
                             "pt --reg-mis maybe", "pt --reg-quality yes", "pt --reg-diffusion yes", "pt --reg-r0 0",
                             "pt --reg-lambda 0.5", "pt --reg-lambda -0.1"}) {
         INFO(bad);

@@ -63,7 +63,10 @@ int main(int argc, char** argv) {
                    "of smooth vertices on paths no technique of the integrator samples), opsr (accumulated roughness "
                    "at connection vertices, Weier et al. 2021: the path tracer's next-event estimation as the paper; "
                    "in bpt/vcm/lt each connection end with its own subpath's roughness, our extension, smooth "
-                   "vertices only on paths no technique samples; not ppm); overrides the scene's")
+                   "vertices only on paths no technique samples; not ppm), jg19,opsr (OPSR with JG19's bound: "
+                   "alpha' = max(alpha, accumulated roughness, alpha_hat(tau_N)) at the vertices OPSR regularises, "
+                   "and the bound alone where the roughness changes nothing, e.g. a point light seen through glass; "
+                   "our combination: --reg-tau and --reg-schedule apply, JG19's heuristics do not); overrides the scene's")
         ->check(CLI::IsMember(kRegularizerNames));
     app.add_option("--reg-tau", regTau,
                    "JG19 bound tau_0 on the BSDF at connections and merges (default 30 for pt/bpt/lt, 1000 for "
@@ -185,10 +188,19 @@ int main(int argc, char** argv) {
     {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
                               !regDiffusion.empty() || !regSpecular.empty();
-        const bool kd13Knob = regR0 > 0.0 || (regLambda >= 0.0 && settings.regularizer != "opsr");
+        const bool combined = settings.regularizer == "jg19,opsr";  // (JG19's bound and schedule only)
+        const bool opsrRuns = settings.regularizer == "opsr" || combined;
+        const bool kd13Knob = regR0 > 0.0 || (regLambda >= 0.0 && !opsrRuns);
         const bool opsrKnob = regOpsrGamma >= 0.0 || !regOpsrTable.empty() || regOpsrConsistent;
-        const bool jg19Misplaced = jg19Knob && settings.regularizer != "jg19";
-        const bool opsrMisplaced = opsrKnob && settings.regularizer != "opsr";
+        const bool jg19Heuristic = !regMis.empty() || !regQuality.empty() || !regDiffusion.empty() || !regSpecular.empty();
+        if (combined && jg19Heuristic) {
+            fmt::print(stderr, "error: --reg jg19,opsr takes JG19's bound and schedule only (--reg-tau, --reg-schedule): "
+                               "OPSR chooses the vertices and the MIS, so --reg-mis/-quality/-diffusion/-specular do not "
+                               "apply\n");
+            return 1;
+        }
+        const bool jg19Misplaced = jg19Knob && settings.regularizer != "jg19" && !combined;
+        const bool opsrMisplaced = opsrKnob && !opsrRuns;
         if (jg19Misplaced || opsrMisplaced || (kd13Knob && settings.regularizer != "kd13")) {
             fmt::print(stderr, "error: {} applies to --reg {} only (this render: --reg {})\n",
                        jg19Misplaced   ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular"
@@ -250,7 +262,10 @@ int main(int argc, char** argv) {
         stats.contributions ? double(stats.regularisedContributions) / double(stats.contributions) : 0.0;
     if (settings.regularizer != "none")
         fmt::print(", {}: {:.1f}% of contributions regularised, {} {:.4g}", settings.regularizer, 100.0 * regShare,
-                   settings.regularizer == "kd13" ? "r_N" : settings.regularizer == "opsr" ? "offset N^-lambda" : "tau_N", stats.tau);
+                   settings.regularizer == "kd13"   ? "r_N"
+                   : settings.regularizer == "opsr" ? "offset N^-lambda"
+                                                    : "tau_N",
+                   stats.tau);
     fmt::print(" -> {}\n", output);
     if (!statsJson.empty()) {
         nlohmann::json j;
@@ -285,12 +300,17 @@ int main(int argc, char** argv) {
             j["reg_lambda"] = settings.regLambda;  // (-1: the defaults, 1/6 and 1/12)
             j["reg_r_last"] = stats.tau;  // r_N of one mollified vertex at the last pass
         }
-        if (settings.regularizer == "opsr") {
+        if (settings.regularizer == "jg19,opsr") {
+            j["reg_tau0"] = settings.regTau > 0.0 ? settings.regTau : regTauDefault(settings.integrator);
+            j["reg_schedule"] = settings.regSchedule;
+            j["reg_tau_last"] = stats.tau;
+        }
+        if (settings.regularizer == "opsr" || settings.regularizer == "jg19,opsr") {
             if (!settings.regOpsrTable.empty()) j["reg_opsr_table"] = settings.regOpsrTable;
             else j["reg_opsr_gamma"] = settings.regOpsrGamma >= 0.0 ? settings.regOpsrGamma : double(opsr::kDefaultGamma);
             j["reg_opsr_consistent"] = settings.regOpsrConsistent;
             if (settings.regOpsrConsistent) j["reg_lambda"] = settings.regLambda;  // (-1: the default, 1/6)
-            j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: no consistent offset)
+            if (settings.regularizer == "opsr") j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: none)
         }
         if (settings.regularizer != "none") {
             j["contributions"] = stats.contributions;

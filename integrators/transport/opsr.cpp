@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
+#include "bsdf/roughness_bound.h"
 #include "integrators/transport/path_templates.h"
 
 namespace lt::opsr {
@@ -156,10 +157,18 @@ Opsr::Opsr(const OpsrSettings& settings) : settings_(settings) {
     if (settings.lambda >= 0.0 && !(settings.lambda > 0.0 && settings.lambda < 0.5))
         throw std::invalid_argument(
             fmt::format("OPSR: lambda of the consistent offset must be in (0, 1/2), got {}", settings.lambda));
+    if (settings.boundTau0 != 0.0) {
+        if (!(settings.boundTau0 > kMinTau))
+            throw std::invalid_argument(fmt::format(
+                "OPSR with JG19's bound: tau_0 must exceed 1/(2 pi) = 0.159, got {}", settings.boundTau0));
+        tau_ = float(settings.boundConsistent ? consistentTau(settings.boundTau0, 1) : settings.boundTau0);
+    }
 }
 
 void Opsr::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) {
     n_ = n;
+    if (settings_.boundTau0 != 0.0)
+        tau_ = float(settings_.boundConsistent ? consistentTau(settings_.boundTau0, n) : settings_.boundTau0);
     hittableLight_ = false;
     bool allHittable = true;
     for (const Light& l : scene.lights()) {
@@ -181,7 +190,7 @@ float Opsr::request(const PathVertex* path, int count) const {
     // The common answers first, in O(1): a vertex no request can change (mayChange: Lambert counts
     // roughness 1), and (tables) one in the top bin, which keeps its roughness.
     if (count < 2 || !mayChange(v)) return -1.f;
-    if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return -1.f;
+    if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return boundOnly(v);
     std::array<float, kMaxPathVertices> a;
     for (int j = 1; j < count; ++j) a[j - 1] = path[j].roughness;
     return requestWith(v, a.data(), count - 1);
@@ -191,8 +200,19 @@ float Opsr::requestWith(const PathVertex& v, const float* a, int count) const {
     const float own = v.roughness;
     float g = opsr::accumulatedRoughness(a, count, settings_.attenuation);
     if (settings_.consistent) g = own + float(double(g - own) * offsetScale());
-    if (!(g > own)) return -1.f;
+    if (!(g > own)) return boundOnly(v);
     return detail::requestCanChange(v, contextFor(TransportMode::Radiance, g)) ? g : -1.f;
+}
+
+float Opsr::boundOnly(const PathVertex& v) const {
+    if (tau_ <= 0.f) return -1.f;
+    // A smooth vertex is changed where the bound makes it rough (requestCanChange), a glossy one
+    // where alpha_hat(tau_n) exceeds its alpha: its value bound falls.
+    const BsdfContext ctx = contextFor(TransportMode::Radiance, v.roughness);
+    if (!detail::requestCanChange(v, ctx)) return -1.f;
+    if (!v.deltaBsdf && !(v.bxdf->valueBound(ctx) < v.bxdf->valueBound(BsdfContext(TransportMode::Radiance))))
+        return -1.f;
+    return v.roughness;
 }
 
 void Opsr::walkRatio(PathVertex& v, const Vec3& wi) const {
@@ -230,7 +250,7 @@ float Opsr::requestFrom(const Technique& tech, int j, End side) const {
     const PathView x(tech);
     const PathVertex& v = x[j];
     if (j < 1 || j > x.n - 2 || !mayChange(v)) return -1.f;
-    if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return -1.f;
+    if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return boundOnly(v);
     std::array<float, kMaxPathVertices> a;
     int count = 0;
     if (side == End::Light)

@@ -76,6 +76,16 @@
 //     This differs from (4): the path tracer regularises next-event estimation at a smooth vertex
 //     after a rough one whatever the light (the reference's choice), BPT only where nothing else
 //     samples the path. With an area light, BPT keeps the sharp caustic the path tracer blurs.
+// (6) With JG19's bound (--reg jg19,opsr; ours): the request at every vertex OPSR regularises
+//     carries JG19's bound tau_n beside the accumulated roughness g, so each lobe is evaluated
+//     with alpha' = max(alpha, g, alpha_hat(tau_n)) (MicrofacetLobe::resolve; alpha_hat per
+//     lobe, with its distribution, masking and eta: jg19.h (1)). A vertex the bound changes
+//     where g does not (g <= its roughness: a smooth vertex after only smooth ones, the
+//     connection vertex in the top bin) is regularised with the bound alone, so the paths OPSR
+//     leaves unrendered (a point light seen through glass: L S E, L S S E) render as with JG19.
+//     OPSR chooses the vertices ((4), (5)) and the MIS (Eq. 12) as without the bound: JG19's
+//     quality and diffusion heuristics do not apply (its bound only, with its schedule: tau_n
+//     by Eq. 16 or tau_0).
 #pragma once
 #include <array>
 #include <cstdint>
@@ -134,17 +144,23 @@ struct OpsrSettings {
     bool consistent = false;  // (3)
     double lambda = -1.0;     // < 0: 1/6
     bool bidirectional = false;  // (5) BPT, VCM, light tracing; else the path tracer (4)
+    // (6) JG19's bound: tau_0 (> 1 / (2 pi)), 0 for none; its schedule (Eq. 16, or tau_0 throughout).
+    double boundTau0 = 0.0;
+    bool boundConsistent = true;
 };
 
 class Opsr {
 public:
-    // Throws std::invalid_argument for gamma outside [0, 1] or lambda outside (0, 1/2).
+    // Throws std::invalid_argument for gamma outside [0, 1], lambda outside (0, 1/2) or a bound
+    // tau_0 that is neither 0 nor above 1 / (2 pi).
     explicit Opsr(const OpsrSettings& settings);
     const OpsrSettings& settings() const { return settings_; }
     void beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg);
     double lambda() const { return settings_.lambda < 0.0 ? 1.0 / 6.0 : settings_.lambda; }
     // The share of the accumulated offset g - a kept in pass N: N^-lambda (consistent), else 1.
     double offsetScale() const;
+    // (6) JG19's bound tau_n of this pass (0: none).
+    float tau() const { return tau_; }
 
     // The roughness the request asks for at the last vertex of the subpath path[0..count-1]
     // (path[0] its endpoint, path[1..count-1] surface vertices), with (3) applied; -1 where the
@@ -171,10 +187,12 @@ public:
         const float g = boundAt(tech, end);
         return g >= 0.f ? contextFor(modeAt(end), g) : BsdfContext(modeAt(end));
     }
-    // The request for accumulated roughness g: every lobe at least alpha g on both axes.
-    static BsdfContext contextFor(TransportMode mode, float g) {
+    // The request for accumulated roughness g: every lobe at least alpha g on both axes (and (6)
+    // at least alpha_hat(tau_n)).
+    BsdfContext contextFor(TransportMode mode, float g) const {
         BsdfContext c(mode);
         c.reg.minAlpha = {g, g};
+        if (tau_ > 0.f) c.reg.tau = tau_;
         return c;
     }
     static constexpr bool kPerTechnique = true;
@@ -252,11 +270,15 @@ private:
     // The request for the roughnesses a[0..count-1] of a subpath's surface vertices (a[count-1]
     // that of v, its last).
     float requestWith(const PathVertex& v, const float* a, int count) const;
+    // (6) The request where g changes nothing: v's own roughness (the bound alone) where the bound
+    // changes v's BSDF, else -1.
+    float boundOnly(const PathVertex& v) const;
     // SubpathState::ratio and rhoBar of the glossy walk vertex v (its walk's vertices are
     // contiguous: v.depth is its index), towards its successor in direction wi.
     void walkRatio(PathVertex& v, const Vec3& wi) const;
     OpsrSettings settings_;
     uint64_t n_ = 1;
+    float tau_ = 0.f;  // (6) tau_n, 0 without the bound
     bool hittableLight_ = true;
     bool smoothEnds_ = true;  // connectible(): may a connection end at a smooth vertex?
     TechniqueSet set_ = TechniqueSet::PathTracer;
