@@ -487,7 +487,7 @@ TEST_CASE("report: a well-formed self-contained page with table, images, crops, 
 TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machine", "[tools][bench]") {
     fs::path dir = tempDir("bench");
     Run r = sh(tool("bench") + " --scenes " + scene("cornell-box.xml") + " --integrators pt --time 0.2 --ref-time 0.5 "
-               "--res 16 --out-dir " + (dir / "out").string() + " -o " + (dir / "B.md").string());
+               "--res 16 --opsr-table none --out-dir " + (dir / "out").string() + " -o " + (dir / "B.md").string());
     INFO(r.output);
     REQUIRE(r.code == 0);
     std::string md = lt::analysis::readFile((dir / "B.md").string());
@@ -541,6 +541,22 @@ TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machin
     CHECK(r.code == 1);
     CHECK(r.output.find("unknown regulariser 'kd99'") != std::string::npos);
     CHECK_FALSE(fs::exists(dir / "D.md"));
+    // An OPSR attenuation file (here a table of 0.5 everywhere, set 'low'): the opsrlow column
+    // beside opsr, PT with that set; a file that is not there is an error.
+    json table;
+    for (int k = 2; k <= 5; ++k) table["sets"]["low"]["tables"][std::to_string(k)] = std::vector<double>(size_t(std::pow(4, k)), 0.5);
+    std::ofstream(dir / "att.json") << table.dump();
+    r = sh(tool("bench") + " --scenes " + scene("cornell-box.xml") + " --integrators pt --regularizers opsr --time 0.1 "
+           "--ref-time 0.5 --res 16 --opsr-table " + (dir / "att.json").string() + " --out-dir " + (dir / "out").string() +
+           " -o " + (dir / "E.md").string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    md = lt::analysis::readFile((dir / "E.md").string());
+    CHECK(std::regex_search(md, std::regex(R"(\| pt\+opsrlow)" + metrics)));
+    CHECK(md.find("| scene | pt+opsr | bpt+opsr | vcm+opsr | pt+opsrlow | bpt+opsrlow | vcm+opsrlow |") != std::string::npos);
+    r = sh(tool("bench") + " --scenes " + scene("cornell-box.xml") + " --opsr-table /no/such.json -o " + (dir / "F.md").string());
+    CHECK(r.code == 1);
+    CHECK(r.output.find("/no/such.json") != std::string::npos);
     fs::remove_all(dir);
 }
 

@@ -108,6 +108,11 @@ int main(int argc, char** argv) {
     app.add_option("--regularizers", regularizerList,
                    "Comma-separated regularisers to run PT, BPT and VCM with besides none (default: all; 'none': "
                    "only the unregularised ones)");
+    std::string opsrTable = "auto";
+    app.add_option("--opsr-table", opsrTable,
+                   "OPSR's reference attenuation file: with the opsr column, PT, BPT and VCM also run with its 'low' set "
+                   "(column opsrlow). Default auto: ../shared/data/opsr/opsr-reference-attenuation.json beside the root, "
+                   "where it exists; 'none': no such column");
     app.add_option("--time", seconds, "Render time per scene and integrator in seconds (default 3)")->check(CLI::PositiveNumber);
     app.add_option("--res", res, "Image width and height, through -D res=N (default 64)")->check(CLI::Range(8, 4096));
     app.add_option("--ref-time", refTime, "Render time of each reference in seconds (default 20)")->check(CLI::PositiveNumber);
@@ -157,6 +162,22 @@ int main(int argc, char** argv) {
         if (r == "jg19") {
             regularizers.push_back("jg19cone");
             regularizerArgs["jg19cone"] = "--reg jg19 --reg-specular cone";
+        }
+        if (r == "opsr") {
+            // OPSR's 'low' set (the paper's least aggressive learnt set) where the file is there.
+            std::string table = opsrTable;
+            if (table == "auto") {
+                const fs::path guess = fs::path(root) / ".." / "shared" / "data" / "opsr" / "opsr-reference-attenuation.json";
+                table = fs::exists(guess) ? fs::absolute(guess).lexically_normal().string() : "none";
+            }
+            if (table != "none") {
+                if (!fs::exists(table)) {
+                    fmt::print(stderr, "bench: error: --opsr-table: no file '{}'\n", table);
+                    return 1;
+                }
+                regularizers.push_back("opsrlow");
+                regularizerArgs["opsrlow"] = "--reg opsr --reg-opsr-table " + table + ":low";
+            }
         }
     }
     // Each regulariser with PT, BPT and VCM where they run unregularised, labelled "pt+jg19" (OPSR
@@ -279,7 +300,8 @@ int main(int argc, char** argv) {
                 "RMS-RE ratio, and where a scene has singular pixels (above) [the relMSE ratio outside them]. Each "
                 "figure is one timed run: where the machine is shared, the spp of a configuration varies between runs "
                 "(see the tables), and so does its relMSE, about in inverse proportion. jg19cone: JG19 with its smooth "
-                "lobes as KD13's cones (`--reg jg19 --reg-specular cone`). opsr: OPSR with its constant gamma 0.01.\n\n| scene |";
+                "lobes as KD13's cones (`--reg jg19 --reg-specular cone`). opsr: OPSR with its constant gamma 0.01; opsrlow: "
+                "OPSR with the 'low' set of the authors' reference attenuation file (where it is found).\n\n| scene |";
         std::string rule = "|---|";
         for (const std::string& r : regularizers)
             for (const std::string& integ : integratorsOf(r)) {
