@@ -459,6 +459,20 @@ TEST_CASE("report: a well-formed self-contained page with table, images, crops, 
     // A bad crop is refused.
     CHECK(sh(tool("report") + " --convergence " + (dir / "conv").string() + " --crop 10,10,10,10 -o " + (dir / "x.html").string()).code == 1);
 
+    // A biasvar sweep beside it: its plot of MSE against the bandwidth, and the command, on the page.
+    REQUIRE(sh(tool("biasvar") + " " + scene("cornell-box.xml") + " -D res=16 -D max_depth=4 -r " + ref.string() +
+               " -c 'pt --reg jg19 --reg-schedule fixed' --sweep reg-tau=3,30 -k 4 --spp 2 -o " + (dir / "sweep").string())
+                .code == 0);
+    Run sw = sh(tool("report") + " --convergence " + (dir / "conv").string() + " --biasvar " + (dir / "sweep").string() +
+                " -o " + (dir / "sweep.html").string());
+    REQUIRE(sw.code == 0);
+    const std::string swText = lt::analysis::readFile((dir / "sweep.html").string());
+    pugi::xml_document swDoc;
+    CHECK(xmlError(swText, swDoc).empty());
+    CHECK(swText.find("MSE against reg-tau") != std::string::npos);
+    CHECK(swText.find("--sweep reg-tau=3,30") != std::string::npos);
+    if (lt::analysis::gnuplotAvailable()) CHECK(swText.find("data:image/svg+xml;base64,") != std::string::npos);
+
     // Rendered by a browser, where one is installed (not required).
     if (!fs::exists("/usr/bin/chromium")) {
         WARN("SKIPPED the screenshot: /usr/bin/chromium is not installed");

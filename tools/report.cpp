@@ -291,6 +291,15 @@ int main(int argc, char** argv) {
             const json& b = bias[bi];
             h += fmt::format("<h2>Bias and variance ({} runs)</h2>\n", b["runs"].get<int>());
             if (b.contains("plot_png")) h += plotImg(biasDirs[bi], b) + "\n";
+            if (b.contains("sweep")) {
+                // biasvar --sweep: MSE against the bandwidth, and the command that made it.
+                const json& sw = b["sweep"];
+                h += fmt::format("<h3>MSE against {}</h3>\n", esc(sw["option"].get<std::string>()));
+                json plotFiles = {{"plot_svg", sw.value("plot_svg", json())}, {"plot_png", sw.value("plot_png", json())},
+                                  {"plot_width", b.value("plot_width", 760)}};
+                h += plotImg(biasDirs[bi], plotFiles) + "\n";
+                h += "<p class=\"note\">Command: <code>" + esc(b.value("command", std::string())) + "</code></p>\n";
+            }
             h += "<div class=\"grid\">\n";
             for (const auto& bc : b["configs"]) {
                 if (bc["levels"].empty()) continue;
