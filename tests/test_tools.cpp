@@ -225,6 +225,24 @@ TEST_CASE("biasvar --sweep: one row per configuration, value and spp, and a wide
         CHECK(wide[1] < 0.5 * narrow[1]);
     }
     if (lt::analysis::gnuplotAvailable()) CHECK(isPng(dir / "bv/sweep.png"));
+    // --crop: the figures over the rectangle only, i.e. the mean of the whole MSE map (written
+    // uncropped) over its pixels; a crop outside the image is refused.
+    Run c = sh(tool("biasvar") + " " + scene("cornell-box-ggx.xml") + " -D res=16 -D alpha=0.01 -D max_depth=4 -r " +
+               ref.string() + " -c pt -k 4 --spp 4 --crop 2,3,5,6 -o " + (dir / "crop").string());
+    INFO(c.output);
+    REQUIRE(c.code == 0);
+    json jc = readJson(dir / "crop/biasvar.json");
+    CHECK(jc["crop"] == json::array({2, 3, 5, 6}));
+    lt::Image mse = lt::readImage((dir / "crop/pt/spp4/mse.exr").string());
+    double sum = 0.0;
+    for (int yy = 3; yy < 9; ++yy)
+        for (int xx = 2; xx < 7; ++xx)
+            for (int k = 0; k < 3; ++k) sum += mse.pixels[size_t(yy) * 16 + xx][k];
+    CHECK(jc["configs"][0]["levels"][0]["absolute"]["mse"].get<double>() == Approx(sum / 90.0).epsilon(1e-5));
+    Run outside = sh(tool("biasvar") + " " + scene("cornell-box-ggx.xml") + " -D res=16 -r " + ref.string() +
+                     " -c pt -k 4 --crop 10,10,8,8 -o " + (dir / "crop2").string());
+    CHECK(outside.code == 1);
+    CHECK(outside.output.find("not inside") != std::string::npos);
     // Bad sweeps: exit 1, naming the part that is wrong.
     for (const auto& [sweep, named] : std::vector<std::pair<std::string, std::string>>{
              {"reg-tau", "no '='"}, {"reg-tau=0,3", "value '0'"}, {"reg-tau=3,x", "value 'x'"}, {"reg-tau=3,3", "twice"},

@@ -375,13 +375,19 @@ PixelStats pixelStats(const ErrorAccumulator& acc, const Image& ref) {
     return s;
 }
 
-ImageFigures imageFigures(const PixelStats& s, const Image* ref) {
+ImageFigures imageFigures(const PixelStats& s, const Image* ref, const CropRect* crop) {
     ImageFigures f;
-    const size_t n = s.mean.pixels.size();
+    const int w = s.mean.width;
+    const CropRect r = crop ? *crop : CropRect{0, 0, w, s.mean.height};
+    if (r.x < 0 || r.y < 0 || r.w <= 0 || r.h <= 0 || r.x + r.w > w || r.y + r.h > s.mean.height)
+        throw std::invalid_argument(fmt::format("crop {},{},{},{} is not inside the {}x{} image", r.x, r.y, r.w, r.h, w,
+                                                s.mean.height));
+    const size_t n = size_t(r.w) * size_t(r.h);
     f.pixels = n;
-    auto meanSe = [n, ref](const Image& img, double& mean, double& se) {
+    auto meanSe = [n, ref, r, w](const Image& img, double& mean, double& se) {
         double sum = 0, sq = 0;
-        for (size_t p = 0; p < n; ++p) {
+        for (size_t i = 0; i < n; ++i) {
+            const size_t p = size_t(r.y + int(i) / r.w) * size_t(w) + size_t(r.x + int(i) % r.w);
             const Color& c = img.pixels[p];
             double v = 0;
             for (int k = 0; k < 3; ++k) {

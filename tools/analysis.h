@@ -108,7 +108,8 @@ struct ImageFigures {
 };
 // With `ref`, every value's terms are divided by (ref^2 + 0.01) first, as in relMSE (relative
 // figures: relMSE = relative bias^2 + relative variance).
-ImageFigures imageFigures(const PixelStats& s, const Image* ref = nullptr);
+// With a crop: over the pixels of that rectangle only (it must lie inside the image).
+ImageFigures imageFigures(const PixelStats& s, const Image* ref = nullptr, const CropRect* crop = nullptr);
 
 // ---- CSV -----------------------------------------------------------------------------------
 // Quotes a field if it contains a comma, a quote or a line break (RFC 4180).
