@@ -51,6 +51,11 @@ void writeMaps(const PixelStats& ps, const fs::path& dir) {
     writePng(falseColour(ps.mse, vmax), (dir / "mse.png").string());
 }
 
+// A plot's height: 480 pixels for the axes and, with more than four curves (analysis_io.cpp puts
+// the key below the plot then, two columns), 17 per row of the key, so the key never squeezes
+// the axes (12 configurations: 48 curves, 24 rows).
+int plotHeight(size_t curves) { return 480 + (curves > 4 ? 17 * int((curves + 1) / 2) : 0); }
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -277,7 +282,7 @@ int main(int argc, char** argv) {
     }
     try {
         if (sppList.size() > 1) {
-            int height = 480 + 20 * int(std::min<size_t>(4, panels[0].curves.size()));
+            const int height = plotHeight(panels[0].curves.size());
             PlotFiles pf = plot((fs::path(outDir) / "biasvar").string(), panels, 760, height);
             summary["plot_width"] = 760;
             if (!pf.ok) fmt::print(stderr, "biasvar: warning: no plot: {}\n", pf.message);
@@ -307,7 +312,7 @@ int main(int argc, char** argv) {
                 }
             writeTextFile((fs::path(outDir) / "sweep.csv").string(), csv);
             PlotFiles pf = plot((fs::path(outDir) / "sweep").string(), {panel}, 760,
-                                480 + 20 * int(std::min<size_t>(6, panel.curves.size())));
+                                plotHeight(panel.curves.size()));
             if (!pf.ok) fmt::print(stderr, "biasvar: warning: no sweep plot: {}\n", pf.message);
             summary["sweep"] = {{"option", sweepOption}, {"values", sweepValues}, {"csv", "sweep.csv"},
                                 {"plot_png", pf.ok ? nlohmann::json("sweep.png") : nlohmann::json(nullptr)},
