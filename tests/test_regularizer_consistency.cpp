@@ -172,6 +172,29 @@ Scene pointInGlassCloseUp(const std::filesystem::path& dir, int res) {
     return Scene(loadScene(file.string(), {{"res", std::to_string(res)}}));
 }
 
+// PT+JG19 with the diffusion heuristic off (so the bound at the glass is tau_n itself), tau_0 and
+// smooth lobes as `specular`, with the consistent schedule; and the same with tau fixed.
+void jg19Settings(double tau0, const std::string& specular, RenderSettings& scheduled, RenderSettings& fixed) {
+    scheduled = settingsFor("pt", 1);
+    scheduled.regularizer = "jg19";
+    scheduled.regSpecular = specular;
+    scheduled.regDiffusion = false;
+    scheduled.regTau = tau0;
+    scheduled.regSchedule = "consistent";
+    fixed = scheduled;
+    fixed.regSchedule = "fixed";
+}
+
+// The checks of every test here: the fitted slope within `tolerance` of the predicted one, and
+// with the bandwidth fixed the measure the same at 64 and 1024 spp (within 5%).
+void checkSchedule(const Measured& m, double predicted, double tolerance, const std::string& measure) {
+    INFO(measure << " " << m.values[0] << " " << m.values[1] << " " << m.values[2] << " " << m.values[3] << "; slope "
+                 << m.slope << ", predicted " << predicted << "; fixed bandwidth: " << measure << " " << m.fixed64
+                 << " at 64 spp, " << m.fixed1024 << " at 1024");
+    CHECK(m.slope == Approx(predicted).margin(tolerance));
+    CHECK(std::abs(std::log(m.fixed1024 / m.fixed64)) < 0.05);
+}
+
 }  // namespace
 
 TEST_CASE("KD13 consistency: the blur of the point's image shrinks as r_N = r0 N^-lambda, and not with lambda 0", "[kd13][render][consistency]") {
@@ -195,12 +218,8 @@ TEST_CASE("KD13 consistency: the blur of the point's image shrinks as r_N = r0 N
     fixed.regLambda = 0.0;
     const Measured m = measureSchedule(scene, s, fixed, secondMoment, dir);
     const double predicted = predictedSlope([](uint64_t n) { return std::pow(double(n), -1.0 / 3.0); });
-    INFO("M2 " << m.values[0] << " " << m.values[1] << " " << m.values[2] << " " << m.values[3] << "; slope "
-               << m.slope << ", predicted " << predicted << "; fixed radius: M2 " << m.fixed64 << " at 64 spp, "
-               << m.fixed1024 << " at 1024");
     CHECK(predicted == Approx(-0.325).margin(0.002));
-    CHECK(m.slope == Approx(predicted).margin(0.03));
-    CHECK(std::abs(std::log(m.fixed1024 / m.fixed64)) < 0.05);
+    checkSchedule(m, predicted, 0.03, "M2");
     std::filesystem::remove_all(dir);
 }
 
@@ -222,21 +241,10 @@ TEST_CASE("JG19 consistency with cones: the blur of the point's image shrinks as
     const std::filesystem::path dir = lt::test::tempDir("lt_consistency", "jg19cone");
     const Scene scene = pointInGlassCloseUp(dir, 64);
     const double tau0 = 100.0;
-    RenderSettings s = settingsFor("pt", 1);
-    s.regularizer = "jg19";
-    s.regSpecular = "cone";
-    s.regDiffusion = false;
-    s.regTau = tau0;
-    s.regSchedule = "consistent";
-    RenderSettings fixed = s;
-    fixed.regSchedule = "fixed";
+    RenderSettings s, fixed;
+    jg19Settings(tau0, "cone", s, fixed);
     const Measured m = measureSchedule(scene, s, fixed, secondMoment, dir);
-    const double predicted = predictedSlope([&](uint64_t n) { return 1.0 / consistentTau(tau0, n); });
-    INFO("M2 " << m.values[0] << " " << m.values[1] << " " << m.values[2] << " " << m.values[3] << "; slope "
-               << m.slope << ", predicted " << predicted << "; fixed tau: M2 " << m.fixed64 << " at 64 spp, "
-               << m.fixed1024 << " at 1024");
-    CHECK(m.slope == Approx(predicted).margin(0.02));
-    CHECK(std::abs(std::log(m.fixed1024 / m.fixed64)) < 0.05);
+    checkSchedule(m, predictedSlope([&](uint64_t n) { return 1.0 / consistentTau(tau0, n); }), 0.02, "M2");
     std::filesystem::remove_all(dir);
 }
 
@@ -263,22 +271,13 @@ TEST_CASE("JG19 consistency with GGX lobes: the point's image sharpens as alpha_
     const std::filesystem::path dir = lt::test::tempDir("lt_consistency", "jg19ggx");
     const Scene scene = pointInGlassCloseUp(dir, 128);
     const double tau0 = 4e5;
-    RenderSettings s = settingsFor("pt", 1);
-    s.regularizer = "jg19";
-    s.regDiffusion = false;
-    s.regTau = tau0;
-    s.regSchedule = "consistent";
-    RenderSettings fixed = s;
-    fixed.regSchedule = "fixed";
+    RenderSettings s, fixed;
+    jg19Settings(tau0, "ggx", s, fixed);
     const Measured m = measureSchedule(scene, s, fixed, effectiveArea, dir);
     auto alpha = [&](uint64_t n) {
         return double(alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, float(consistentTau(tau0, n)), true, 1.5f));
     };
-    const double predicted = -predictedSlope([&](uint64_t n) { return 1.0 / sqr(alpha(n)); });
-    INFO("alpha_1 " << alpha(1) << ", alpha_4096 " << alpha(4096) << "; area " << m.values[0] << " " << m.values[1]
-                    << " " << m.values[2] << " " << m.values[3] << "; slope " << m.slope << ", predicted "
-                    << predicted << "; fixed tau: area " << m.fixed64 << " at 64 spp, " << m.fixed1024 << " at 1024");
-    CHECK(m.slope == Approx(predicted).margin(0.02));
-    CHECK(std::abs(std::log(m.fixed1024 / m.fixed64)) < 0.05);
+    INFO("alpha_1 " << alpha(1) << ", alpha_4096 " << alpha(4096));
+    checkSchedule(m, -predictedSlope([&](uint64_t n) { return 1.0 / sqr(alpha(n)); }), 0.02, "area");
     std::filesystem::remove_all(dir);
 }
