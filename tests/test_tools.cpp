@@ -586,6 +586,15 @@ TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machin
     md = lt::analysis::readFile((dir / "E.md").string());
     CHECK(std::regex_search(md, std::regex(R"(\| pt\+opsrlow)" + metrics)));
     CHECK(md.find("| scene | pt+opsr | bpt+opsr | vcm+opsr | pt+opsrlow | bpt+opsrlow | vcm+opsrlow |") != std::string::npos);
+    // Sections after the keep marker in an existing file survive a rewrite, after the new tables.
+    std::ofstream(dir / "K.md") << "# old\n| stale table |\n<!-- bench keeps what follows this line -->\n## Kept section\n";
+    r = sh(tool("bench") + " --scenes " + scene("cornell-box.xml") + " --integrators pt --regularizers none --time 0.1 "
+           "--ref-time 0.5 --res 16 --out-dir " + (dir / "out").string() + " -o " + (dir / "K.md").string());
+    REQUIRE(r.code == 0);
+    md = lt::analysis::readFile((dir / "K.md").string());
+    CHECK(md.find("| stale table |") == std::string::npos);
+    CHECK(md.find("## Kept section") != std::string::npos);
+    CHECK(md.find("## Kept section") > md.find("| pt |"));
     r = sh(tool("bench") + " --scenes " + scene("cornell-box.xml") + " --opsr-table /no/such.json -o " + (dir / "F.md").string());
     CHECK(r.code == 1);
     CHECK(r.output.find("/no/such.json") != std::string::npos);

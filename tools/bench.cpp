@@ -28,6 +28,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// The line after which an existing BENCHMARKS.md's sections are kept (see the end of main).
+constexpr const char* kKeepMarker = "<!-- bench keeps what follows";
+
 std::string firstMatch(const std::string& file, const std::string& key) {
     std::ifstream f(file);
     std::string line;
@@ -342,8 +345,16 @@ int main(int argc, char** argv) {
                        "lights behind glass) misses them, and so do the figures against it.\n\n";
     head += fmt::format("Date: {}. Command: `{}`. Total time {:.0f} s.\n\n## Machine\n\n{}", nowUtc(), commandLine(argc, argv),
                         total, machine(threads));
+    // Sections written by hand or by other runs (e.g. OPSR's reference sets at equal time) follow a
+    // marker line in the existing file; they are kept, after the new tables.
+    std::string kept;
+    if (fs::exists(md)) {
+        const std::string old = readFile(md);
+        const size_t at = old.find(kKeepMarker);
+        if (at != std::string::npos) kept = "\n" + old.substr(at);
+    }
     try {
-        writeTextFile(md, head + body);
+        writeTextFile(md, head + body + kept);
     } catch (const std::exception& e) {
         fmt::print(stderr, "bench: error: {}\n", e.what());
         return 3;
