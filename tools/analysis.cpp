@@ -56,7 +56,7 @@ std::vector<std::string> tokenize(const std::string& s) {
 
 double toDouble(const std::string& opt, const std::string& v) {
     size_t used = 0;
-    double d;
+    double d = 0.0;
     try {
         d = std::stod(v, &used);
     } catch (const std::exception&) {
