@@ -238,3 +238,53 @@ TEST_CASE("render with --time runs passes until the time is up", "[cli]") {
     CHECK(std::stod(m[1]) >= 0.5);
     CHECK(std::stod(m[1]) < 5.0);
 }
+
+TEST_CASE("numeric options state their valid range in words", "[cli]") {
+    // CLI11's own range checks printed the bounds as numbers (DBL_MAX in full for --spp -3).
+    std::string scene = std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml --quiet -o /tmp/lt_cli_never.exr ";
+    struct Case { std::string args, words; };
+    for (const Case& c : {Case{"--spp -3", "--spp: must be greater than 0 (got -3)"},
+                          Case{"--spp 0", "--spp: must be greater than 0 (got 0)"},
+                          Case{"--spp x", "--spp: must be a number"},
+                          Case{"--threads -1", "--threads: must be 0 or more (0 = all cores) (got -1)"},
+                          Case{"--max-depth 65", "--max-depth: must be in [-1, 64] (-1 = unlimited) (got 65)"},
+                          Case{"--radius-alpha 0", "--radius-alpha: must be in (0, 1] (got 0)"},
+                          Case{"--reg-tau 0.1", "--reg-tau: must be greater than 1/(2 pi) = 0.159 (got 0.1)"},
+                          Case{"--reg-lambda 0.5", "--reg-lambda: must be in [0, 0.5)"}}) {
+        Run r = run(scene + c.args);
+        INFO(c.args << "\n" << r.output);
+        CHECK(r.code == 1);
+        CHECK(r.output.find(c.words) != std::string::npos);
+        CHECK(r.output.find("179769313486") == std::string::npos);  // (DBL_MAX written out)
+    }
+    CHECK_FALSE(fs::exists("/tmp/lt_cli_never.exr"));
+}
+
+TEST_CASE("an output that cannot be written fails before the render; a missing folder is created", "[cli]") {
+    // A folder where a file is (the parent is a regular file), an output that is a folder, and a
+    // statistics file that cannot be written: exit 3 at once, naming the file. The render asked for
+    // (256^2, 100000 spp) would take minutes, so an exit within the test's time shows it was not
+    // started. A missing nested folder is created and the image written there.
+    fs::path dir = tempDir("unwritable");
+    std::ofstream(dir / "file") << "x";
+    fs::create_directories(dir / "folder.exr");
+    const std::string scene = std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml --quiet --spp 100000 ";
+    for (const auto& [args, named] : std::vector<std::pair<std::string, std::string>>{
+             {"-o " + (dir / "file/out.exr").string(), (dir / "file/out.exr").string()},
+             {"-o " + (dir / "folder.exr").string(), "it is a folder"},
+             {"-o " + (dir / "ok.exr").string() + " --stats-json " + (dir / "file/s.json").string(), (dir / "file/s.json").string()}}) {
+        Run r = run(scene + args);
+        INFO(args << "\n" << r.output);
+        CHECK(r.code == 3);
+        CHECK(r.output.find("cannot write '") != std::string::npos);
+        CHECK(r.output.find(named) != std::string::npos);
+    }
+    CHECK_FALSE(fs::exists(dir / "ok.exr"));
+    Run made = run(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml --quiet --spp 1 -D res=8 -o " +
+                   (dir / "new/deeper/img.exr").string());
+    INFO(made.output);
+    CHECK(made.code == 0);
+    CHECK(fs::exists(dir / "new/deeper/img.exr"));
+    CHECK(fs::exists(dir / "new/deeper/img.png"));
+    fs::remove_all(dir);
+}

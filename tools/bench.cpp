@@ -21,6 +21,7 @@
 #include "core/loader.h"
 #include "core/scene.h"
 #include "tools/analysis.h"
+#include "tools/cli_checks.h"
 
 using namespace lt;
 using namespace lt::analysis;
@@ -116,11 +117,11 @@ int main(int argc, char** argv) {
                    "OPSR's reference attenuation file: with the opsr column, PT, BPT and VCM also run with its 'low' set "
                    "(column opsrlow). Default auto: ../shared/data/opsr/opsr-reference-attenuation.json beside the root, "
                    "where it exists; 'none': no such column");
-    app.add_option("--time", seconds, "Render time per scene and integrator in seconds (default 3)")->check(CLI::PositiveNumber);
-    app.add_option("--res", res, "Image width and height, through -D res=N (default 64)")->check(CLI::Range(8, 4096));
-    app.add_option("--ref-time", refTime, "Render time of each reference in seconds (default 20)")->check(CLI::PositiveNumber);
+    app.add_option("--time", seconds, "Render time per scene and integrator in seconds (default 3)")->check(lt::cli::positive());
+    app.add_option("--res", res, "Image width and height, through -D res=N (default 64)")->check(lt::cli::range(8, 4096));
+    app.add_option("--ref-time", refTime, "Render time of each reference in seconds (default 20)")->check(lt::cli::positive());
     app.add_option("--ref-config", refConfig, "Configuration of the references (default auto: vcm, else bpt, else pt)");
-    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(lt::cli::nonNegative("0 = all cores"));
     app.add_option("--out-dir", outDir, "Images and cached references (default out/bench)");
     app.add_option("-o,--output", md, "Markdown report (default BENCHMARKS.md)");
     try {

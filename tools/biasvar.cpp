@@ -25,6 +25,7 @@
 #include "core/loader.h"
 #include "core/scene.h"
 #include "tools/analysis.h"
+#include "tools/cli_checks.h"
 
 using namespace lt;
 using namespace lt::analysis;
@@ -72,18 +73,18 @@ int main(int argc, char** argv) {
     app.add_option("-r,--reference", refPath, "Reference image (.exr/.pfm/.hdr) of the same size")->required();
     app.add_option("-c,--config", specs, "Configuration, e.g. \"pt\" or \"vcm --radius 0.01\" (repeatable)")->allow_extra_args(false);
     app.add_option("--configs", configFile, "JSON file with configurations");
-    app.add_option("-k,--runs", runs, "Independent renders K per configuration (>= 4; default 16)")->check(CLI::Range(4, 100000));
+    app.add_option("-k,--runs", runs, "Independent renders K per configuration (>= 4; default 16)")->check(lt::cli::range(4, 100000));
     app.add_option("--spp", sppList, "Samples per pixel; repeat it (--spp 4 --spp 16) or give a list (--spp 4,16,64) "
                                      "for curves against spp (default 16)")
         ->allow_extra_args(false)
         ->delimiter(',')
-        ->check(CLI::PositiveNumber);
+        ->check(lt::cli::positive());
     app.add_option("--seed", seed, "Seed of the first run; run k uses seed + k (default 1000)");
-    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(lt::cli::nonNegative("0 = all cores"));
     app.add_option("-D", defineList, "Override a <default> of the scene: -D name=value")->take_all()->allow_extra_args(false);
     app.add_option("-o,--output-dir", outDir, "Output folder (default out/biasvar/<scene name>)");
     app.add_option("--z", zCrit, "Two-sided critical |z| for the tests (default 3.29: significance 0.001)")
-        ->check(CLI::PositiveNumber);
+        ->check(lt::cli::positive());
     app.add_option("--sweep", sweepSpec,
                    "OPTION=V1,V2,...: run every configuration once per value with --OPTION V appended (e.g. "
                    "reg-tau=10,30,100 or reg-opsr-gamma=0.01,0.1,0.5); adds sweep.csv and the plot sweep.png/.svg "

@@ -13,6 +13,7 @@
 #include "core/loader.h"
 #include "core/scene.h"
 #include "tools/analysis.h"
+#include "tools/cli_checks.h"
 
 using namespace lt;
 using namespace lt::analysis;
@@ -54,18 +55,18 @@ int main(int argc, char** argv) {
     app.add_option("-r,--reference", refPath, "Reference image (.exr/.pfm/.hdr) of the same size")->required();
     app.add_option("-c,--config", specs, "Configuration, e.g. \"pt\" or \"pt --pt-strategy bsdf\" (repeatable)")->allow_extra_args(false);
     app.add_option("--configs", configFile, "JSON file with configurations (list of strings or {config, label})");
-    app.add_option("--spp", spp, "Render each configuration to this spp (default 256 unless --time)")->check(CLI::PositiveNumber);
+    app.add_option("--spp", spp, "Render each configuration to this spp (default 256 unless --time)")->check(lt::cli::positive());
     app.add_option("--time", timeLimit, "Render each configuration for this many seconds (with --spp: whichever comes first)")
-        ->check(CLI::PositiveNumber);
-    app.add_option("--time-base", timeBase, "First time checkpoint in seconds; then x2 (default 0.01)")->check(CLI::PositiveNumber);
-    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+        ->check(lt::cli::positive());
+    app.add_option("--time-base", timeBase, "First time checkpoint in seconds; then x2 (default 0.01)")->check(lt::cli::positive());
+    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(lt::cli::nonNegative("0 = all cores"));
     app.add_option("--seed", seed, "Random seed (the same for every configuration; default 1)");
     app.add_option("-D", defineList, "Override a <default> of the scene: -D name=value")->take_all()->allow_extra_args(false);
     app.add_option("-o,--output-dir", outDir, "Output folder (default out/convergence/<scene name>)");
     app.add_option("--metric", metric, "Metric plotted: relmse (default), rmsre, mape, mse (the CSV has all)")
         ->check(CLI::IsMember({"relmse", "rmsre", "mape", "mse"}));
     app.add_option("--fit-min-spp", fitMinSpp, "Fit the log-log slope to checkpoints with at least this spp (default 1)")
-        ->check(CLI::PositiveNumber);
+        ->check(lt::cli::positive());
     app.add_flag("--no-images", noImages, "Do not write the final image of each configuration");
     app.footer("Outputs in the folder: convergence.csv (config,spp,seconds,mse,relmse,rmsre,mape), convergence.png/.svg "
                "(+ .gp script and .dat data), images/<config>.exr/.png, convergence.json.\n"

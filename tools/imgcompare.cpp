@@ -19,6 +19,7 @@
 
 #include "core/image.h"
 #include "core/metrics.h"
+#include "tools/cli_checks.h"
 
 using namespace lt;
 
@@ -128,7 +129,7 @@ int main(int argc, char** argv) {
                    "worst --top-fraction of pixels")
         ->type_name("DIR");
     app.add_option("--worst", worstK, "With --strategies: how many of the worst pixels to list (default 5)")
-        ->check(CLI::PositiveNumber)
+        ->check(lt::cli::positive())
         ->needs(strategiesOpt)
         ->type_name("K");
     app.add_flag("--json", json, "Print the results as one JSON object instead of 'name: value' lines");

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <set>
 #include "tools/analysis.h"
+#include "tools/cli_checks.h"
 
 using namespace lt;
 using namespace lt::analysis;
@@ -40,7 +41,7 @@ int main(int argc, char** argv) {
     app.add_option("inputs", inputs, "Input images (.exr/.pfm/.hdr)")->required();
     app.add_option("--spp", spps, "Sample counts of the inputs, in order (instead of the JSON sidecars)")
         ->allow_extra_args(false)
-        ->check(CLI::PositiveNumber);
+        ->check(lt::cli::positive());
     app.add_option("--stats", stats, "JSON sidecars of the inputs, in order (default: IN.json, IN.exr.json or "
                                      "IN.stats.json beside each input)")
         ->allow_extra_args(false);

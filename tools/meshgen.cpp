@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <fstream>
 #include <vector>
+#include "tools/cli_checks.h"
 
 int main(int argc, char** argv) {
     CLI::App app{"meshgen: displaced sphere as binary little-endian PLY (triangles = 2 * rings * segments)"};
@@ -13,8 +14,8 @@ int main(int argc, char** argv) {
     int rings = 708, segments = 708;
     double amplitude = 0.08, frequency = 12;
     app.add_option("output", out, "Output .ply")->required();
-    app.add_option("--rings", rings, "Rings (latitude)")->check(CLI::Range(3, 100000));
-    app.add_option("--segments", segments, "Segments (longitude)")->check(CLI::Range(3, 100000));
+    app.add_option("--rings", rings, "Rings (latitude)")->check(lt::cli::range(3, 100000));
+    app.add_option("--segments", segments, "Segments (longitude)")->check(lt::cli::range(3, 100000));
     app.add_option("--amplitude", amplitude, "Relative displacement amplitude");
     app.add_option("--frequency", frequency, "Displacement frequency");
     CLI11_PARSE(app, argc, argv);

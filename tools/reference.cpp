@@ -12,6 +12,7 @@
 #include "core/loader.h"
 #include "core/scene.h"
 #include "tools/analysis.h"
+#include "tools/cli_checks.h"
 
 using namespace lt;
 using namespace lt::analysis;
@@ -29,14 +30,14 @@ int main(int argc, char** argv) {
     app.add_option("-o,--output", out, "Reference image (.exr); REF.png, REF.json and the folder REF.chunks/ go beside it")
         ->required();
     app.add_option("-c,--config", spec, "Configuration (integrator and options), default \"pt\"");
-    auto* sppOpt = app.add_option("--spp", spp, "Total samples per pixel (default 1024 unless --time)")->check(CLI::PositiveNumber);
+    auto* sppOpt = app.add_option("--spp", spp, "Total samples per pixel (default 1024 unless --time)")->check(lt::cli::positive());
     app.add_option("--time", timeTotal, "Total render time in seconds instead of --spp (split evenly over the chunks)")
-        ->check(CLI::PositiveNumber)
+        ->check(lt::cli::positive())
         ->excludes(sppOpt);
-    app.add_option("--chunks", chunks, "Independent chunks (default: 8, at most spp)")->check(CLI::PositiveNumber);
+    app.add_option("--chunks", chunks, "Independent chunks (default: 8, at most spp)")->check(lt::cli::positive());
     app.add_option("--seed", seed, "Seed of chunk 0; chunk i uses seed + i (default 0x5EED0000, apart from the seeds "
                                    "the other tools use by default)");
-    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(lt::cli::nonNegative("0 = all cores"));
     app.add_option("-D", defineList, "Override a <default> of the scene: -D name=value")->take_all()->allow_extra_args(false);
     app.add_flag("--force", force, "Render even if REF.json says the reference is up to date (chunks are re-rendered too)");
     app.add_flag("--clean", clean, "Delete REF.chunks/ after merging");

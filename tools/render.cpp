@@ -5,12 +5,14 @@
 #include <fmt/core.h>
 #include <filesystem>
 #include <fstream>
+#include <unistd.h>
 #include <map>
 #include <nlohmann/json.hpp>
 #include "bsdf/roughness_bound.h"
 #include "core/image.h"
 #include "core/loader.h"
 #include "integrators/integrator.h"
+#include "tools/cli_checks.h"
 
 using namespace lt;
 namespace fs = std::filesystem;
@@ -20,6 +22,25 @@ static std::string formatRate(double v) {
     if (v >= 1e6) return fmt::format("{:.2f} M", v / 1e6);
     if (v >= 1e3) return fmt::format("{:.2f} k", v / 1e3);
     return fmt::format("{:.1f} ", v);
+}
+
+// Why the file `out` could not be written, or "" where it can: its folder is created where missing,
+// and a probe file is written in it and removed (the file itself is not touched).
+std::string whyNotWritable(const fs::path& out) {
+    if (fs::is_directory(out)) return "it is a folder";
+    fs::path dir = out.parent_path();
+    if (dir.empty()) dir = ".";
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) return fmt::format("cannot create the folder '{}': {}", dir.string(), ec.message());
+    const fs::path probe = dir / fmt::format(".{}.{}.probe", out.filename().string(), ::getpid());
+    bool ok = false;
+    {
+        std::ofstream f(probe);
+        ok = f && (f << "probe") && f.flush();
+    }
+    fs::remove(probe, ec);
+    return ok ? std::string() : fmt::format("cannot write in the folder '{}'", dir.string());
 }
 
 int main(int argc, char** argv) {
@@ -36,21 +57,21 @@ int main(int argc, char** argv) {
                                           "Default: out/<scene name>.exr");
     app.add_option("--integrator", integrator, "Integrator, overrides the scene's: " + supportedIntegrators());
     auto* sppOpt = app.add_option("--spp", spp, "Samples per pixel (overrides the scene's sample_count)")
-                       ->check(CLI::PositiveNumber);
+                       ->check(lt::cli::positive());
     app.add_option("--time", timeLimit, "Render for this many seconds instead of a fixed spp")
-        ->check(CLI::PositiveNumber)
+        ->check(lt::cli::positive())
         ->excludes(sppOpt);
-    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(lt::cli::nonNegative("0 = all cores"));
     auto* seedOpt = app.add_option("--seed", seed, "Random seed (overrides the scene's sampler seed)");
     app.add_option("--max-depth", maxDepth, "Maximum path length in segments (-1 = unlimited)")
-        ->check(CLI::Range(-1, 64));
+        ->check(lt::cli::range(-1, 64, false, false, "-1 = unlimited"));
     app.add_option("-D", defines, "Override a <default> of the scene: -D name=value")->take_all();
     std::string ptStrategy = "mis", strategyImages;
     float radius = -1.f, radiusAlpha = -1.f;
     app.add_option("--radius", radius, "VCM/PPM initial merge radius (default: the scene's, else 0.003 x the geometry's bounding radius)")
-        ->check(CLI::PositiveNumber);
+        ->check(lt::cli::positive());
     app.add_option("--radius-alpha", radiusAlpha, "VCM/PPM radius reduction: r_i = r_0 i^((alpha-1)/2), alpha in (0,1]")
-        ->check(CLI::Range(1e-6, 1.0));
+        ->check(lt::cli::range(0.0, 1.0, true, false));
     app.add_option("--strategy-images", strategyImages,
                    "Write each technique's weighted contribution (s_t.exr, merge_s.exr; under a regulariser regularised.exr and "
                    "singular.exr) to this directory");
@@ -71,7 +92,7 @@ int main(int argc, char** argv) {
     app.add_option("--reg-tau", regTau,
                    "JG19 bound tau_0 on the BSDF at connections and merges (default 30 for pt/bpt/lt, 1000 for "
                    "vcm/ppm; JG19 Sec. 6); must exceed 1/(2 pi)")
-        ->check(CLI::Range(kMinTau + 1e-9, 1e300));
+        ->check(lt::cli::greaterThan(kMinTau, "1/(2 pi) = 0.159"));
     app.add_option("--reg-schedule", regSchedule,
                    "JG19 tau over iterations: consistent (default; Eq. 16, tau_N grows, the bias vanishes) or fixed")
         ->check(CLI::IsMember(kRegScheduleNames));
@@ -98,18 +119,18 @@ int main(int argc, char** argv) {
     app.add_option("--reg-r0", regR0,
                    "KD13 initial radius r_0 of the cone at a smooth vertex, eps = arctan(r_N / l) over a connection of "
                    "length l (default 1% of the geometry's bounding radius; KD13 Sec. 6)")
-        ->check(CLI::Range(1e-30, 1e30));
+        ->check(lt::cli::positive());
     app.add_option("--reg-lambda", regLambda,
                    "KD13 radius reduction r_N = r_0 N^-lambda, N the pass (default 1/6 for one mollified vertex, 1/12 for "
                    "two, KD13 Sec. 5.1; consistent for lambda < 1/2 with one, < 1/4 with two; 0: a fixed radius)")
-        ->check(CLI::Range(0.0, 0.4999999));
+        ->check(lt::cli::range(0.0, 0.5, false, true, "0: a fixed radius"));
     double regOpsrGamma = -1.0;
     std::string regOpsrTable;
     bool regOpsrConsistent = false;
     app.add_option("--reg-opsr-gamma", regOpsrGamma,
                    "OPSR constant attenuation factor gamma (Eq. 11; default 0.01, the paper's naive setting; 0 renders "
                    "as --reg none)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(lt::cli::range(0.0, 1.0));
     app.add_option("--reg-opsr-table", regOpsrTable,
                    "OPSR per-path-class attenuation factors (Eqs. 13-14) from a JSON file, FILE[:SET] (SET default "
                    "low; e.g. ../shared/data/opsr/opsr-reference-attenuation.json:moderate; 'interp' sets are looked up "
@@ -140,6 +161,16 @@ int main(int argc, char** argv) {
     if (ext != ".exr" && ext != ".pfm") {
         fmt::print(stderr, "error: --output must end in .exr or .pfm, got '{}'\n", output);
         return 1;
+    }
+    // The outputs' folders are made now (a missing one is created) and written to once, so an
+    // output that cannot be written fails before the render, not after it.
+    for (const std::string& file : {output, statsJson}) {
+        if (file.empty()) continue;
+        const std::string why = whyNotWritable(file);
+        if (!why.empty()) {
+            fmt::print(stderr, "error: cannot write '{}': {}\n", file, why);
+            return 3;
+        }
     }
 
     SceneDesc desc;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 #include <filesystem>
 #include "tools/analysis.h"
+#include "tools/cli_checks.h"
 
 using namespace lt;
 using namespace lt::analysis;
@@ -102,7 +103,7 @@ int main(int argc, char** argv) {
     app.add_option("--biasvar", biasDirs, "Output folder of `biasvar` (repeatable; matched to configurations by label)")
         ->allow_extra_args(false);
     app.add_option("--crop", cropStrs, "Zoomed crop x,y,w,h in pixels (row 0 at the top; repeatable)")->allow_extra_args(false);
-    app.add_option("--zoom", zoom, "Crop magnification (default: crops shown about 192 px wide)")->check(CLI::Range(1, 64));
+    app.add_option("--zoom", zoom, "Crop magnification (default: crops shown about 192 px wide)")->check(lt::cli::range(1, 64));
     app.add_option("--exposure", exposureStr, "Exposure in EV for all images, or auto (from the reference; default)");
     app.add_option("--title", title, "Page title (default: the scene name)");
     app.add_option("-o,--output", out, "HTML file (default <convergence folder>/report.html)");
