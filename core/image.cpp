@@ -69,6 +69,13 @@ void checkWritable(const Image& img, const std::string& path) {
     if (img.pixels.size() != size_t(img.width) * size_t(img.height))
         fail(path, "cannot write image: pixel buffer holds " + std::to_string(img.pixels.size()) +
                        " pixels but size is " + std::to_string(img.width) + "x" + std::to_string(img.height));
+    // A NaN or infinite value is never written (a PNG would show it as black or white, silently).
+    for (size_t i = 0; i < img.pixels.size(); ++i) {
+        const Color& c = img.pixels[i];
+        if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z))
+            fail(path, "refusing to write an image with a non-finite value (NaN or Inf) at pixel (" +
+                           std::to_string(i % size_t(img.width)) + ", " + std::to_string(i / size_t(img.width)) + ")");
+    }
 }
 
 // ---- OpenEXR -------------------------------------------------------------------------------

@@ -260,7 +260,7 @@ TEST_CASE("numeric options state their valid range in words", "[cli]") {
     CHECK_FALSE(fs::exists("/tmp/lt_cli_never.exr"));
 }
 
-TEST_CASE("an output that cannot be written fails before the render; a missing folder is created", "[cli]") {
+TEST_CASE("an output that cannot be written fails before the render, and a missing folder is created", "[cli]") {
     // A folder where a file is (the parent is a regular file), an output that is a folder, and a
     // statistics file that cannot be written: exit 3 at once, naming the file. The render asked for
     // (256^2, 100000 spp) would take minutes, so an exit within the test's time shows it was not

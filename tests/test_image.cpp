@@ -1,5 +1,6 @@
 // Image I/O: round trips through every format and error reporting on bad files.
 #include <catch2/catch.hpp>
+#include <limits>
 #include "process.h"
 
 #include <OpenEXR/ImfCRgbaFile.h>
@@ -264,6 +265,28 @@ TEST_CASE("PNG is written with exposure, sRGB curve and clamping", "[image][png]
     std::string path3 = tmp.file("c.png");
     writeImage(img, path3);
     REQUIRE(fs::file_size(path3) > 8);
+}
+
+TEST_CASE("No writer writes a NaN or infinite value: ImageError naming the file and the pixel, no file", "[image][errors]") {
+    TempDir tmp;
+    for (const float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity()}) {
+        Image img(3, 2, Color(0.5f));
+        img.at(2, 1) = Color(0.5f, bad, 0.5f);
+        for (const char* ext : {".exr", ".pfm", ".png", ".hdr"}) {
+            const std::string path = tmp.file(std::string("bad") + ext);
+            INFO(path << " value " << bad);
+            try {
+                writeImage(img, path);
+                FAIL("no ImageError");
+            } catch (const ImageError& e) {
+                const std::string what = e.what();
+                CHECK(what.find(path) != std::string::npos);
+                CHECK(what.find("pixel (2, 1)") != std::string::npos);
+            }
+            CHECK_FALSE(fs::exists(path));
+        }
+    }
 }
 
 TEST_CASE("Missing files and unknown extensions throw ImageError naming the file", "[image][errors]") {
