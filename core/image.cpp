@@ -23,12 +23,14 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <unistd.h>
 
 namespace lt {
 
@@ -42,6 +44,25 @@ constexpr int64_t kMaxPixels = int64_t(1) << 28;
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
     throw ImageError(path + ": " + what);
+}
+
+// Writes the file `path` through a temporary file beside it (write(tmp) writes that), renamed
+// over `path` at the end: a reader never sees a half-written file, and a write that fails leaves
+// the previous file as it was (the temporary one is removed).
+template <class Write>
+void writeAtomically(const std::string& path, Write&& write) {
+    const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+    try {
+        write(tmp);
+    } catch (...) {
+        std::remove(tmp.c_str());
+        throw;
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        const int e = errno;
+        std::remove(tmp.c_str());
+        fail(path, std::string("cannot replace the file: ") + std::strerror(e));
+    }
 }
 
 std::string lowerExtension(const std::string& path) {
@@ -288,30 +309,36 @@ void writeExr(const Image& img, const std::string& path) { writeExr(img, path, E
 
 void writeExr(const Image& img, const std::string& path, ExrPixelType type) {
     checkWritable(img, path);
-    try {
-        writeExrImpl(img, path, type);
-    } catch (const std::exception& e) {
-        fail(path, std::string("cannot write OpenEXR file: ") + e.what());
-    }
+    writeAtomically(path, [&](const std::string& tmp) {
+        try {
+            writeExrImpl(img, tmp, type);
+        } catch (const std::exception& e) {
+            fail(path, std::string("cannot write OpenEXR file: ") + e.what());
+        }
+    });
 }
 
 void writePfm(const Image& img, const std::string& path) {
     checkWritable(img, path);
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    if (!out) fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
-    // Negative scale = little endian. Data is written in the host's byte order, declared as such.
-    out << "PF\n" << img.width << ' ' << img.height << '\n'
-        << (std::endian::native == std::endian::little ? "-1.0" : "1.0") << '\n';
-    for (int y = img.height - 1; y >= 0; --y)  // bottom row first
-        out.write(reinterpret_cast<const char*>(&img.at(0, y)), std::streamsize(sizeof(Color) * size_t(img.width)));
-    out.flush();
-    if (!out) fail(path, "write error");
+    writeAtomically(path, [&](const std::string& tmp) {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        if (!out) fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
+        // Negative scale = little endian. Data is written in the host's byte order, declared as such.
+        out << "PF\n" << img.width << ' ' << img.height << '\n'
+            << (std::endian::native == std::endian::little ? "-1.0" : "1.0") << '\n';
+        for (int y = img.height - 1; y >= 0; --y)  // bottom row first
+            out.write(reinterpret_cast<const char*>(&img.at(0, y)), std::streamsize(sizeof(Color) * size_t(img.width)));
+        out.flush();
+        if (!out) fail(path, "write error");
+    });
 }
 
 void writeHdr(const Image& img, const std::string& path) {
     checkWritable(img, path);
-    if (!stbi_write_hdr(path.c_str(), img.width, img.height, 3, reinterpret_cast<const float*>(img.pixels.data())))
-        fail(path, "cannot write Radiance HDR file");
+    writeAtomically(path, [&](const std::string& tmp) {
+        if (!stbi_write_hdr(tmp.c_str(), img.width, img.height, 3, reinterpret_cast<const float*>(img.pixels.data())))
+            fail(path, "cannot write Radiance HDR file");
+    });
 }
 
 float linearToSrgb(float c) {
@@ -327,8 +354,10 @@ void writePng(const Image& img, const std::string& path, float exposure) {
     for (size_t i = 0; i < img.pixels.size(); ++i)
         for (int c = 0; c < 3; ++c)
             bytes[3 * i + c] = (unsigned char)std::lround(255.f * linearToSrgb(img.pixels[i][c] * scale));
-    if (!stbi_write_png(path.c_str(), img.width, img.height, 3, bytes.data(), img.width * 3))
-        fail(path, "cannot write PNG file");
+    writeAtomically(path, [&](const std::string& tmp) {
+        if (!stbi_write_png(tmp.c_str(), img.width, img.height, 3, bytes.data(), img.width * 3))
+            fail(path, "cannot write PNG file");
+    });
 }
 
 void writeImage(const Image& img, const std::string& path) {

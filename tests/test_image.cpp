@@ -1,6 +1,9 @@
 // Image I/O: round trips through every format and error reporting on bad files.
 #include <catch2/catch.hpp>
 #include <limits>
+#include <sys/stat.h>
+#include <fstream>
+#include <iterator>
 #include "process.h"
 
 #include <OpenEXR/ImfCRgbaFile.h>
@@ -287,6 +290,48 @@ TEST_CASE("No writer writes a NaN or infinite value: ImageError naming the file 
             CHECK_FALSE(fs::exists(path));
         }
     }
+}
+
+TEST_CASE("Writers replace a file whole (a temporary file renamed over it), and a failed write keeps the old one", "[image][errors]") {
+    // The file is replaced by a rename, not rewritten in place: its inode changes, so a reader that
+    // had it open keeps reading the old file whole, and no reader sees a half-written one. No
+    // temporary file is left, after a success or a failure; a failed write (a non-finite value,
+    // or OpenEXR unable to write) leaves the previous file as it was.
+    TempDir tmp;
+    auto inode = [](const std::string& p) {
+        struct stat st {};
+        REQUIRE(::stat(p.c_str(), &st) == 0);
+        return st.st_ino;
+    };
+    auto leftovers = [&] {
+        int n = 0;
+        for (const auto& e : fs::directory_iterator(tmp.dir)) n += e.path().string().find(".tmp") != std::string::npos;
+        return n;
+    };
+    for (const char* ext : {".exr", ".pfm", ".png", ".hdr"}) {
+        const std::string path = tmp.file(std::string("img") + ext);
+        INFO(path);
+        writeImage(Image(2, 2, Color(0.25f)), path);
+        const auto first = inode(path);
+        const auto before = readBytes(path);
+        // Hold the first file open, as a viewer would, while it is replaced.
+        std::ifstream held(path, std::ios::binary);
+        writeImage(Image(2, 2, Color(0.75f)), path);
+        CHECK(inode(path) != first);
+        CHECK(readBytes(path) != before);
+        std::vector<char> old((std::istreambuf_iterator<char>(held)), std::istreambuf_iterator<char>());
+        CHECK(old == before);  // the reader that had it open still reads the old file whole
+        const auto second = readBytes(path);
+        Image bad(2, 2, Color(0.5f));
+        bad.at(0, 0).x = std::numeric_limits<float>::quiet_NaN();
+        CHECK_THROWS_AS(writeImage(bad, path), ImageError);
+        CHECK(readBytes(path) == second);
+        CHECK(leftovers() == 0);
+    }
+    // OpenEXR cannot write a file whose folder is a file: the error names the file, nothing is left.
+    std::ofstream(tmp.file("plain")) << "x";
+    CHECK_THROWS_AS(writeExr(Image(1, 1), tmp.file("plain") + "/a.exr"), ImageError);
+    CHECK(leftovers() == 0);
 }
 
 TEST_CASE("Missing files and unknown extensions throw ImageError naming the file", "[image][errors]") {

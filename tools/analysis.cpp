@@ -16,6 +16,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 
@@ -552,9 +553,25 @@ std::string readFile(const std::string& path) {
 void writeTextFile(const std::string& path, const std::string& text) {
     fs::path p(path);
     if (p.has_parent_path()) fs::create_directories(p.parent_path());
-    std::ofstream f(path, std::ios::binary);
-    f << text;
-    if (!f) throw std::runtime_error(path + ": cannot write");
+    // Through a temporary file renamed over `path`, as the images (core/image.cpp): never a
+    // half-written file, and the previous one kept where the write fails.
+    const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+    {
+        std::ofstream f(tmp, std::ios::binary);
+        f << text;
+        f.flush();
+        if (!f) {
+            std::error_code ec;
+            fs::remove(tmp, ec);
+            throw std::runtime_error(path + ": cannot write");
+        }
+    }
+    std::error_code ec;
+    fs::rename(tmp, path, ec);
+    if (ec) {
+        fs::remove(tmp, ec);
+        throw std::runtime_error(path + ": cannot replace the file");
+    }
 }
 
 std::string commandLine(int argc, char** argv) {
