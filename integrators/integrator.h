@@ -1,5 +1,6 @@
 // Integrators and the render loop shared by them.
 #pragma once
+#include <atomic>
 #include <algorithm>
 #include <functional>
 #include <memory>
@@ -15,6 +16,8 @@
 namespace lt {
 
 struct RenderSettings {
+    // Set (e.g. by a signal handler) to stop after the pass in flight; RenderStats::interrupted.
+    const std::atomic<bool>* stop = nullptr;
     std::string integrator = "pt";  // pt (bpt, vcm, lt, ppm: see issue 3)
     int spp = 0;                    // samples per pixel; 0 = until timeLimit
     double timeLimit = 0.0;         // seconds; 0 = no limit
@@ -95,6 +98,7 @@ struct RenderStats {
     // evaluated a regularised BSDF, and tau of the last iteration (0: no regulariser).
     uint64_t contributions = 0, regularisedContributions = 0;
     double tau = 0.0;
+    bool interrupted = false;  // RenderSettings::stop was set: spp passes of those asked are done
 };
 
 // One iteration/pass of an integrator over the whole image. A pass with index `pass` draws the

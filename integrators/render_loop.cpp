@@ -145,6 +145,10 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     constexpr int kTile = 16;
     while (true) {
         if (totalPasses > 0 && passes >= totalPasses) break;
+        if (settings.stop && settings.stop->load(std::memory_order_relaxed)) {
+            stats.interrupted = true;
+            break;
+        }
         if (totalPasses == 0 && (settings.timeLimit <= 0.0 || elapsed() >= settings.timeLimit)) break;
         uint32_t pass = uint32_t(passes);
         {

@@ -3,11 +3,13 @@
 // writes no output and does not crash; bad command lines exit with 1.
 #include <catch2/catch.hpp>
 #include "process.h"
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <nlohmann/json.hpp>
 #include <sys/wait.h>
 #include "core/image.h"
 
@@ -286,5 +288,37 @@ TEST_CASE("an output that cannot be written fails before the render, and a missi
     CHECK(made.code == 0);
     CHECK(fs::exists(dir / "new/deeper/img.exr"));
     CHECK(fs::exists(dir / "new/deeper/img.png"));
+    fs::remove_all(dir);
+}
+
+TEST_CASE("SIGINT stops a render after the pass in flight and writes the image of the passes done", "[cli][signals]") {
+    // A render of 10^6 passes (64^2) gets SIGINT after 1.5 s: it writes the image and the
+    // statistics of the passes it completed (>= 2; about 900 here), says so and exits with 5. The
+    // passes are keyed on their index, so the image is bit for bit that of --spp N with the same
+    // seed. A second signal (SIGTERM twice, during a pass of a 2048^2 render) exits at once with
+    // 128 + 15 and writes nothing.
+    fs::path dir = tempDir("signals");
+    const std::string render = std::string(LT_RENDER_BIN) + " " + LT_SOURCE_DIR + "/scenes/cornell-box.xml -q ";
+    Run r = sh("bash -c '" + render + "-D res=64 --spp 1000000 -o " + (dir / "i.exr").string() + " --stats-json " +
+               (dir / "i.json").string() + " & pid=$!; sleep 1.5; kill -INT $pid; wait $pid; echo exit=$?'");
+    INFO(r.output);
+    CHECK(r.output.find("exit=5") != std::string::npos);
+    REQUIRE(fs::exists(dir / "i.json"));
+    const auto j = nlohmann::json::parse(std::ifstream(dir / "i.json"));
+    const int spp = j["spp"].get<int>();
+    CHECK(spp >= 2);
+    CHECK(j["interrupted"].get<bool>());
+    CHECK(r.output.find("holds " + std::to_string(spp) + " spp of the 1000000 asked") != std::string::npos);
+    Run straight = sh(render + "-D res=64 --spp " + std::to_string(spp) + " -o " + (dir / "s.exr").string());
+    REQUIRE(straight.code == 0);
+    const lt::Image a = lt::readImage((dir / "i.exr").string()), b = lt::readImage((dir / "s.exr").string());
+    REQUIRE(a.pixels.size() == b.pixels.size());
+    CHECK(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin()));
+
+    Run twice = sh("bash -c '" + render + "-D res=2048 --spp 100 -o " + (dir / "big.exr").string() +
+                   " & pid=$!; sleep 0.8; kill -TERM $pid; sleep 0.1; kill -TERM $pid; wait $pid; echo exit=$?'");
+    INFO(twice.output);
+    CHECK(twice.output.find("exit=143") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "big.exr"));
     fs::remove_all(dir);
 }

@@ -3,6 +3,8 @@
 // 3 output could not be written; 4 other runtime failure.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
+#include <csignal>
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <unistd.h>
@@ -22,6 +24,27 @@ static std::string formatRate(double v) {
     if (v >= 1e6) return fmt::format("{:.2f} M", v / 1e6);
     if (v >= 1e3) return fmt::format("{:.2f} k", v / 1e3);
     return fmt::format("{:.1f} ", v);
+}
+
+// SIGINT and SIGTERM: the first stops the render after the pass in flight (the image of the
+// completed passes is written, exit code 5); a second one exits at once (128 + the signal).
+std::atomic<bool> gStop{false};
+std::atomic<int> gSignals{0};
+extern "C" void onStopSignal(int sig) {
+    if (gSignals.fetch_add(1, std::memory_order_relaxed) > 0) _exit(128 + sig);
+    gStop.store(true, std::memory_order_relaxed);
+    static const char msg[] = "\nrender: stopping after the pass in flight (a second signal quits at once)\n";
+    const ssize_t ignored = write(STDERR_FILENO, msg, sizeof msg - 1);
+    (void)ignored;
+}
+void installStopHandlers() {
+    static_assert(std::atomic<bool>::is_always_lock_free && std::atomic<int>::is_always_lock_free,
+                  "the signal handler uses them");
+    struct sigaction sa {};
+    sa.sa_handler = onStopSignal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
 }
 
 // Why the file `out` could not be written, or "" where it can: its folder is created where missing,
@@ -140,7 +163,9 @@ int main(int argc, char** argv) {
                  "(lambda: --reg-lambda, default 1/6)");
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
-    app.footer("Exit codes: 0 success, 1 bad command line, 2 bad scene, 3 output not written, 4 runtime error.");
+    app.footer("Exit codes: 0 success, 1 bad command line, 2 bad scene, 3 output not written, 4 runtime error, "
+               "5 interrupted (SIGINT or SIGTERM: the image of the passes done was written; a second signal quits at "
+               "once with 128 + the signal).");
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -267,11 +292,17 @@ int main(int argc, char** argv) {
             fmt::print(stderr, "\r[{}{}] {:5.1f}%  {}samples/s  ETA {:.1f}s ", std::string(filled, '#'),
                        std::string(bar - filled, ' '), 100.0 * frac, formatRate(rate), eta);
         };
+        settings.stop = &gStop;
+        installStopHandlers();
         img = renderImage(scene, settings, stats, progress);
         if (!quiet) fmt::print(stderr, "\n");
     } catch (const std::exception& e) {
         fmt::print(stderr, "error: rendering failed: {}\n", e.what());
         return 4;
+    }
+    if (stats.interrupted && stats.spp == 0) {
+        fmt::print(stderr, "render: interrupted before the first pass was done: nothing written\n");
+        return 5;
     }
 
     try {
@@ -348,12 +379,18 @@ int main(int argc, char** argv) {
             j["regularised_contributions"] = stats.regularisedContributions;
             j["regularised_share"] = regShare;
         }
+        if (stats.interrupted) j["interrupted"] = true;
         std::ofstream f(statsJson);
         f << j.dump(2) << "\n";
         if (!f) {
             fmt::print(stderr, "error: could not write '{}'\n", statsJson);
             return 3;
         }
+    }
+    if (stats.interrupted) {
+        fmt::print(stderr, "render: interrupted: {} holds {} spp{}\n", output, stats.spp,
+                   settings.spp > 0 ? fmt::format(" of the {} asked", settings.spp) : std::string());
+        return 5;
     }
     return 0;
 }
