@@ -1,5 +1,8 @@
 #include "core/film.h"
 
+#include <cstring>
+#include <stdexcept>
+
 namespace lt {
 
 Film::Film(int width, int height, FilterType filter)
@@ -34,6 +37,32 @@ bool Film::splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t 
     int x = std::clamp(int(raster.x), 0, width_ - 1), y = std::clamp(int(raster.y), 0, height_ - 1);
     buf.splats.push_back({uint32_t(size_t(y) * width_ + x), c, strategyS, regularised, singular});
     return true;
+}
+
+std::string Film::state() const {
+    const size_t n = sum_.size();
+    std::string out;
+    out.resize(n * (2 * sizeof(glm::dvec3) + sizeof(uint32_t)) + sizeof(uint64_t));
+    char* p = out.data();
+    std::memcpy(p, sum_.data(), n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
+    std::memcpy(p, count_.data(), n * sizeof(uint32_t)), p += n * sizeof(uint32_t);
+    std::memcpy(p, splat_.data(), n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
+    const uint64_t invalid = invalid_.load();
+    std::memcpy(p, &invalid, sizeof invalid);
+    return out;
+}
+
+void Film::restore(const std::string& bytes) {
+    const size_t n = sum_.size();
+    if (bytes.size() != n * (2 * sizeof(glm::dvec3) + sizeof(uint32_t)) + sizeof(uint64_t))
+        throw std::runtime_error("the saved film is not one of " + std::to_string(width_) + "x" + std::to_string(height_));
+    const char* p = bytes.data();
+    std::memcpy(sum_.data(), p, n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
+    std::memcpy(count_.data(), p, n * sizeof(uint32_t)), p += n * sizeof(uint32_t);
+    std::memcpy(splat_.data(), p, n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
+    uint64_t invalid = 0;
+    std::memcpy(&invalid, p, sizeof invalid);
+    invalid_ = invalid;
 }
 
 void Film::mergeSplats(const SplatBuffer& buf) {

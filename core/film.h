@@ -4,6 +4,7 @@
 // samples are rejected and counted, never accumulated.
 #pragma once
 #include <atomic>
+#include <string>
 #include <vector>
 #include "core/image.h"
 #include "core/scene_desc.h"
@@ -48,6 +49,11 @@ public:
 
     uint64_t invalidSamples() const { return invalid_.load(); }
     void countInvalid(uint64_t n = 1) { invalid_ += n; }
+
+    // The accumulated state (sums, counts, splats, invalid count) as bytes, for checkpoints, and
+    // back: restore() throws std::runtime_error when the bytes are not a film of this size.
+    std::string state() const;
+    void restore(const std::string& bytes);
 
 private:
     bool valid(const Color& c) const { return isFinite(c) && c.x >= 0.f && c.y >= 0.f && c.z >= 0.f; }

@@ -18,6 +18,13 @@ namespace lt {
 struct RenderSettings {
     // Set (e.g. by a signal handler) to stop after the pass in flight; RenderStats::interrupted.
     const std::atomic<bool>* stop = nullptr;
+    // Checkpoints: resume from `resumePasses` passes whose film state is `resumeFilm`
+    // (Film::state), and call `checkpoint` with the passes done and the film every
+    // `checkpointEvery` seconds and after the last pass (--spp mode only).
+    uint64_t resumePasses = 0;
+    std::string resumeFilm;
+    std::function<void(uint64_t, const Film&)> checkpoint;
+    double checkpointEvery = 0.0;
     std::string integrator = "pt";  // pt (bpt, vcm, lt, ppm: see issue 3)
     int spp = 0;                    // samples per pixel; 0 = until timeLimit
     double timeLimit = 0.0;         // seconds; 0 = no limit

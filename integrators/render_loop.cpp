@@ -140,7 +140,9 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     double excluded = 0.0;  // seconds spent in the progress callback
     auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count() - excluded; };
     std::atomic<uint64_t> rays{0}, contributions{0}, regularised{0};
-    uint64_t passes = 0;
+    uint64_t passes = settings.resumePasses;
+    if (passes > 0) film.restore(settings.resumeFilm);
+    double lastCheckpoint = 0.0;
     const uint64_t totalPasses = settings.spp > 0 ? uint64_t(settings.spp) : 0;
     constexpr int kTile = 16;
     while (true) {
@@ -173,8 +175,13 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
                               passes * uint64_t(cam.width()) * cam.height(), &film});
             excluded += std::chrono::duration<double>(Clock::now() - c0).count();
         }
+        if (settings.checkpoint && settings.checkpointEvery > 0.0 && elapsed() - lastCheckpoint >= settings.checkpointEvery) {
+            settings.checkpoint(passes, film);
+            lastCheckpoint = elapsed();
+        }
         if (totalPasses > 0 && settings.timeLimit > 0.0 && elapsed() >= settings.timeLimit) break;
     }
+    if (settings.checkpoint) settings.checkpoint(passes, film);
     integrator->finish(scene, passes);
     stats.seconds = elapsed();
     stats.spp = passes;

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
 #include "core/image.h"
+#include "tools/analysis.h"
 
 namespace fs = std::filesystem;
 using lt::test::Run;
@@ -320,5 +321,55 @@ TEST_CASE("SIGINT stops a render after the pass in flight and writes the image o
     INFO(twice.output);
     CHECK(twice.output.find("exit=143") != std::string::npos);
     CHECK_FALSE(fs::exists(dir / "big.exr"));
+    fs::remove_all(dir);
+}
+
+TEST_CASE("checkpoint and resume: stopped and resumed any number of times, the image of one run straight through", "[cli][checkpoint]") {
+    // --spp 3 --checkpoint, then --spp 5 and --spp 8 each resuming and checkpointing again, with 1,
+    // 2 and 1 threads: the image must be --spp 8's bit for bit (the passes are keyed on their
+    // index: random streams, VCM's radius, the regularisers' schedules), for PT, BPT and VCM, with
+    // and without a regulariser. A checkpoint of another integrator, scene, -D define or setting,
+    // a damaged one, or --time is refused (exit 1, naming the file).
+    fs::path dir = tempDir("checkpoint");
+    const std::string scene = std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-glass-sphere.xml -D res=24 -q ";
+    const std::string render = std::string(LT_RENDER_BIN) + " ";
+    for (const std::string cfg : {"pt", "bpt", "vcm", "pt --reg jg19", "vcm --reg kd13", "bpt --reg opsr"}) {
+        INFO(cfg);
+        const std::string ck = (dir / "ck").string(), args = scene + "--integrator " + cfg + " ";
+        REQUIRE(sh(render + args + "--spp 3 --threads 1 --checkpoint " + ck + " -o " + (dir / "a.exr").string()).code == 0);
+        REQUIRE(sh(render + args + "--spp 5 --threads 2 --resume " + ck + " --checkpoint " + ck + " -o " +
+                   (dir / "b.exr").string()).code == 0);
+        Run last = sh(render + args + "--spp 8 --threads 1 --resume " + ck + " --checkpoint " + ck + " -o " +
+                      (dir / "c.exr").string() + " --stats-json " + (dir / "c.json").string());
+        INFO(last.output);
+        REQUIRE(last.code == 0);
+        REQUIRE(sh(render + args + "--spp 8 -o " + (dir / "straight.exr").string()).code == 0);
+        const lt::Image a = lt::readImage((dir / "c.exr").string()), b = lt::readImage((dir / "straight.exr").string());
+        REQUIRE(a.pixels.size() == b.pixels.size());
+        CHECK(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin()));
+        CHECK(nlohmann::json::parse(std::ifstream(dir / "c.json"))["spp"].get<int>() == 8);
+        fs::remove(dir / "ck");
+    }
+    const std::string ck = (dir / "ck").string();
+    REQUIRE(sh(render + scene + "--integrator pt --spp 2 --checkpoint " + ck + " -o " + (dir / "a.exr").string()).code == 0);
+    std::string damaged = lt::analysis::readFile(ck);
+    damaged.resize(damaged.size() - 100);
+    std::ofstream((dir / "damaged").string(), std::ios::binary) << damaged;
+    for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
+             {scene + "--integrator bpt --spp 4 --resume " + ck, "another scene, integrator or settings"},
+             {std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml -D res=24 -q --integrator pt --spp 4 --resume " + ck,
+              "another scene, integrator or settings"},
+             {std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-glass-sphere.xml -D res=25 -q --integrator pt --spp 4 --resume " + ck,
+              "another scene, integrator or settings"},
+             {scene + "--integrator pt --spp 4 --seed 9 --resume " + ck, "another scene, integrator or settings"},
+             {scene + "--integrator pt --spp 4 --resume " + (dir / "damaged").string(), "truncated or damaged"},
+             {scene + "--integrator pt --spp 1 --resume " + ck, "more than the 1 spp asked"},
+             {scene + "--integrator pt --time 1 --checkpoint " + ck, "need a sample count"}}) {
+        Run r = sh(render + args + " -o " + (dir / "x.exr").string());
+        INFO(args << "\n" << r.output);
+        CHECK(r.code == 1);
+        CHECK(r.output.find(words) != std::string::npos);
+    }
+    CHECK_FALSE(fs::exists(dir / "x.exr"));
     fs::remove_all(dir);
 }

@@ -9,11 +9,13 @@
 #include <fstream>
 #include <unistd.h>
 #include <map>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include "bsdf/roughness_bound.h"
 #include "core/image.h"
 #include "core/loader.h"
 #include "integrators/integrator.h"
+#include "tools/analysis.h"
 #include "tools/cli_checks.h"
 
 using namespace lt;
@@ -45,6 +47,48 @@ void installStopHandlers() {
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, nullptr);
     sigaction(SIGTERM, &sa, nullptr);
+}
+
+// ---- Checkpoints: a text header (magic, key, passes, film bytes), then the film's state ----------
+constexpr const char* kCheckpointMagic = "lighttransport checkpoint 1";
+
+std::string checkpointKeyOf(const std::string& scenePath, const std::map<std::string, std::string>& defines,
+                            const RenderSettings& s) {
+    const std::string settings = fmt::format(
+        "integrator {}\nseed {}\nmax_depth {}\nrr_depth {}\nhide_emitters {}\npt_strategy {}\nradius {}\n"
+        "radius_alpha {}\nreg {}\nreg_tau {}\nreg_schedule {}\nreg_mis {}\nreg_quality {}\nreg_diffusion {}\n"
+        "reg_specular {}\nreg_r0 {}\nreg_lambda {}\nreg_opsr_gamma {}\nreg_opsr_table {}\nreg_opsr_consistent {}\n",
+        s.integrator, s.seed, s.maxDepth, s.rrDepth, s.hideEmitters, s.ptStrategy, s.radius, s.radiusAlpha,
+        s.regularizer, s.regTau, s.regSchedule, s.regMis, s.regQuality, regDiffusionOf(s), s.regSpecular, s.regR0,
+        s.regLambda, s.regOpsrGamma, s.regOpsrTable, s.regOpsrConsistent);
+    return analysis::sha256Hex(analysis::hashScene(scenePath, defines).sha256 + "\n" + settings);
+}
+
+void writeCheckpoint(const std::string& path, const std::string& key, uint64_t passes, const Film& film) {
+    const std::string state = film.state();
+    analysis::writeTextFile(path, fmt::format("{}\nkey {}\npasses {}\nbytes {}\n", kCheckpointMagic, key, passes,
+                                              state.size()) + state);
+}
+
+// Reads a checkpoint written with `key`; throws naming what is wrong (another scene, integrator
+// or settings; not a checkpoint; truncated).
+void readCheckpoint(const std::string& path, const std::string& key, uint64_t& passes, std::string& film) {
+    const std::string all = analysis::readFile(path);
+    std::istringstream in(all);
+    std::string magic, word, fileKey;
+    size_t bytes = 0;
+    std::getline(in, magic);
+    if (magic != kCheckpointMagic) throw std::runtime_error("not a checkpoint of this renderer");
+    if (!(in >> word >> fileKey) || word != "key") throw std::runtime_error("malformed header (key)");
+    if (!(in >> word >> passes) || word != "passes") throw std::runtime_error("malformed header (passes)");
+    if (!(in >> word >> bytes) || word != "bytes") throw std::runtime_error("malformed header (bytes)");
+    in.get();  // the newline
+    if (fileKey != key)
+        throw std::runtime_error("it is from another scene, integrator or settings (key " + fileKey.substr(0, 12) +
+                                 ", this render's " + key.substr(0, 12) + ")");
+    const size_t at = size_t(in.tellg());
+    if (all.size() != at + bytes) throw std::runtime_error("truncated or damaged (film size)");
+    film = all.substr(at);
 }
 
 // Why the file `out` could not be written, or "" where it can: its folder is created where missing,
@@ -163,6 +207,16 @@ int main(int argc, char** argv) {
                  "(lambda: --reg-lambda, default 1/6)");
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
+    std::string checkpointPath, resumePath;
+    double checkpointEvery = 60.0;
+    app.add_option("--checkpoint", checkpointPath,
+                   "Save the accumulated film and the pass count to this file (atomically) every --checkpoint-every "
+                   "seconds and at the end; --resume continues from it");
+    app.add_option("--checkpoint-every", checkpointEvery, "Seconds between checkpoints (default 60)")
+        ->check(lt::cli::positive());
+    app.add_option("--resume", resumePath,
+                   "Continue a render from a checkpoint of the same scene, integrator and settings, to --spp in all "
+                   "(bit for bit the image of one run straight through)");
     app.footer("Exit codes: 0 success, 1 bad command line, 2 bad scene, 3 output not written, 4 runtime error, "
                "5 interrupted (SIGINT or SIGTERM: the image of the passes done was written; a second signal quits at "
                "once with 128 + the signal).");
@@ -276,6 +330,47 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
         fmt::print(stderr, "error: {}\n", e.what());
         return 1;
+    }
+
+    // Checkpoints (--checkpoint, --resume): the key is the SHA-256 of the scene (every file it reads
+    // and the -D defines) and of every setting that changes the image; spp and threads do not.
+    std::string checkpointKey;
+    if (!checkpointPath.empty() || !resumePath.empty()) {
+        if (settings.spp <= 0 || !strategyImages.empty()) {
+            fmt::print(stderr, "error: --checkpoint and --resume need a sample count (--spp or the scene's), not --time, "
+                               "and no --strategy-images\n");
+            return 1;
+        }
+        try {
+            checkpointKey = checkpointKeyOf(scenePath, defs, settings);
+        } catch (const std::exception& e) {
+            fmt::print(stderr, "error: {}: {}\n", scenePath, e.what());
+            return 2;
+        }
+    }
+    if (!resumePath.empty()) {
+        try {
+            readCheckpoint(resumePath, checkpointKey, settings.resumePasses, settings.resumeFilm);
+        } catch (const std::exception& e) {
+            fmt::print(stderr, "error: --resume {}: {}\n", resumePath, e.what());
+            return 1;
+        }
+        if (settings.resumePasses > uint64_t(settings.spp)) {
+            fmt::print(stderr, "error: --resume {}: it holds {} passes, more than the {} spp asked\n", resumePath,
+                       settings.resumePasses, settings.spp);
+            return 1;
+        }
+    }
+    if (!checkpointPath.empty()) {
+        const std::string why = whyNotWritable(checkpointPath);
+        if (!why.empty()) {
+            fmt::print(stderr, "error: cannot write '{}': {}\n", checkpointPath, why);
+            return 3;
+        }
+        settings.checkpointEvery = checkpointEvery;
+        settings.checkpoint = [&](uint64_t passes, const Film& film) {
+            writeCheckpoint(checkpointPath, checkpointKey, passes, film);
+        };
     }
 
     RenderStats stats;
