@@ -3,6 +3,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <atomic>
+#include <cstdint>
 #include <chrono>
 #include <stdexcept>
 #include "integrators/integrator.h"
@@ -143,6 +144,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     uint64_t passes = settings.resumePasses;
     if (passes > 0) film.restore(settings.resumeFilm);
     double lastCheckpoint = 0.0;
+    uint64_t savedPasses = UINT64_MAX;  // the passes the last periodic checkpoint holds
     const uint64_t totalPasses = settings.spp > 0 ? uint64_t(settings.spp) : 0;
     constexpr int kTile = 16;
     while (true) {
@@ -177,11 +179,12 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
         }
         if (settings.checkpoint && settings.checkpointEvery > 0.0 && elapsed() - lastCheckpoint >= settings.checkpointEvery) {
             settings.checkpoint(passes, film);
+            savedPasses = passes;
             lastCheckpoint = elapsed();
         }
         if (totalPasses > 0 && settings.timeLimit > 0.0 && elapsed() >= settings.timeLimit) break;
     }
-    if (settings.checkpoint) settings.checkpoint(passes, film);
+    if (settings.checkpoint && passes != savedPasses) settings.checkpoint(passes, film);  // (not twice the same)
     integrator->finish(scene, passes);
     stats.seconds = elapsed();
     stats.spp = passes;

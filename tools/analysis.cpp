@@ -1,5 +1,6 @@
 // Shared code of the analysis tools; see analysis.h.
 #include "tools/analysis.h"
+#include "tools/parse_number.h"
 #include "bsdf/roughness_bound.h"
 #include "core/loader.h"
 
@@ -56,15 +57,8 @@ std::vector<std::string> tokenize(const std::string& s) {
 }
 
 double toDouble(const std::string& opt, const std::string& v) {
-    size_t used = 0;
     double d = 0.0;
-    try {
-        d = std::stod(v, &used);
-    } catch (const std::exception&) {
-        used = 0;
-    }
-    if (used != v.size() || v.empty() || !std::isfinite(d))
-        throw std::invalid_argument(fmt::format("{} expects a number, got '{}'", opt, v));
+    if (!parseFiniteNumber(v, d)) throw std::invalid_argument(fmt::format("{} expects a number, got '{}'", opt, v));
     return d;
 }
 
@@ -98,14 +92,8 @@ void parseSweep(const std::string& spec, std::string& option, std::vector<double
     values.clear();
     std::stringstream list(spec.substr(eq + 1));
     for (std::string item; std::getline(list, item, ',');) {
-        size_t used = 0;
         double v = 0.0;
-        try {
-            v = std::stod(item, &used);
-        } catch (const std::exception&) {
-            used = 0;
-        }
-        if (used == 0 || used != item.size() || !std::isfinite(v) || !(v > 0.0))
+        if (!parseFiniteNumber(item, v) || !(v > 0.0))
             throw std::invalid_argument(
                 fmt::format("'{}': value '{}' is not a finite number > 0 (the values are plotted on a log axis)", spec, item));
         values.push_back(v);

@@ -118,8 +118,8 @@ int main(int argc, char** argv) {
     std::vector<RunConfig> configs;
     std::map<std::string, std::string> defines;
     if (int rc = parseRunInputs("biasvar", defineList, specs, configFile, defines, configs)) return rc;
-    // The sweep: each configuration once per value (sweepBase[i]: the index of expanded
-    // configuration i's configuration, sweepValue[i] its value).
+    // The sweep: each configuration once per value (sweepBase[i]: the configuration that expanded
+    // configuration i comes from; its value is sweepValues[i % sweepValues.size()]).
     std::string sweepOption;
     std::vector<double> sweepValues;
     std::vector<size_t> sweepBase;

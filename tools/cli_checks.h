@@ -5,23 +5,12 @@
 #pragma once
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
-#include <cmath>
 #include <string>
+#include "tools/parse_number.h"
 
 namespace lt::cli {
 
 namespace detail {
-
-// The value of s as a finite number, or false.
-inline bool number(const std::string& s, double& v) {
-    size_t used = 0;
-    try {
-        v = std::stod(s, &used);
-    } catch (const std::exception&) {
-        return false;
-    }
-    return used == s.size() && std::isfinite(v);
-}
 
 // A validator accepting the numbers x with ok(x), else "must be <what> (got s)".
 template <class Ok>
@@ -29,7 +18,7 @@ CLI::Validator check(const std::string& what, Ok ok) {
     return CLI::Validator(
         [what, ok](std::string& s) -> std::string {
             double v = 0.0;
-            if (!number(s, v)) return fmt::format("must be a number, {} (got '{}')", what, s);
+            if (!parseFiniteNumber(s, v)) return fmt::format("must be a number, {} (got '{}')", what, s);
             return ok(v) ? std::string() : fmt::format("must be {} (got {})", what, s);
         },
         what);
