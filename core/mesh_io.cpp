@@ -492,7 +492,8 @@ MeshDesc readSerialized(const std::string& path, int shapeIndex, bool* faceNorma
     bool dbl = (flags & 0x2000) != 0;
     size_t fs = dbl ? 8 : 4;
     if (nv > 0xFFFFFFFFull) throw MeshError(fmt::format("{}: more than 2^32 vertices is not supported", path));
-    if (nv * 3 * fs > rd.remaining() || nf * 12 > rd.remaining())
+    // Divided, not multiplied: a declared count near 2^64 must not wrap round to a small size.
+    if (nv > rd.remaining() / (3 * fs) || nf > rd.remaining() / 12)
         throw MeshError(fmt::format("{}: truncated data ({} vertices, {} triangles declared)", path, nv, nf));
     auto readF = [&](const char* what) { return dbl ? float(rd.get<double>(what)) : rd.get<float>(what); };
     m.positions.resize(nv);
