@@ -281,6 +281,51 @@ TEST_CASE("an output that cannot be written fails before the render, and a missi
     fs::remove_all(dir);
 }
 
+TEST_CASE("a write that fails for lack of space keeps the previous image whole and leaves no temporary file", "[cli][errors]") {
+    // The disk fills up after the output probe: a 128 KiB filesystem holds the old 8^2 image
+    // (about 1.4 KB) but not the new 256^2 one (about 600 KB). render exits 3 naming the file; the
+    // old EXR and PNG are byte for byte what they were and nothing else is left in the folder.
+    // Two ways of filling the disk, each a different errno for the writers:
+    //  - a full tmpfs (ENOSPC), mounted in a user and mount namespace of its own (unshare -rm):
+    //    where this machine does not allow that, this part says so and is skipped;
+    //  - the process's file-size limit (ulimit -f, EFBIG; SIGXFSZ ignored), which any machine has.
+    fs::path dir = tempDir("fullfs");
+    const std::string render = std::string(LT_RENDER_BIN) + " " + LT_SOURCE_DIR + "/scenes/cornell-box.xml -q --spp 1 ";
+    Run old = run(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml -q --spp 1 -D res=8 -o " + (dir / "old.exr").string());
+    REQUIRE(old.code == 0);
+    const std::string script = dir.string() + "/check.sh";
+    // $1: the folder written into. Prints the render's exit code, whether the old files are intact
+    // and what the folder holds.
+    std::ofstream(script) << "cd '" << dir.string() << "' || exit 9\n"
+                          << "cp old.exr \"$1/out.exr\" && cp old.png \"$1/out.png\" || exit 9\n"
+                          << render << "-D res=256 -o \"$1/out.exr\" 2>&1\n"
+                          << "echo \"code=$?\"\n"
+                          << "cmp -s old.exr \"$1/out.exr\" && cmp -s old.png \"$1/out.png\" && echo intact\n"
+                          << "echo \"files=$(ls -A \"$1\" | tr '\\n' ' ')\"\n";
+    auto check = [&](const Run& r, const std::string& why) {
+        INFO(why << "\n" << r.output);
+        CHECK(r.output.find("code=3") != std::string::npos);
+        CHECK(r.output.find("cannot write") != std::string::npos);
+        CHECK(r.output.find("intact") != std::string::npos);
+        CHECK(r.output.find("files=out.exr out.png \n") != std::string::npos);
+    };
+    Run probe = sh("unshare -rm sh -c 'mkdir -p " + dir.string() + "/mnt && mount -t tmpfs -o size=128k tmpfs " +
+                   dir.string() + "/mnt && echo mounted'");
+    if (probe.output.find("mounted") != std::string::npos) {
+        Run r = sh("unshare -rm sh -c 'mount -t tmpfs -o size=128k tmpfs " + dir.string() + "/mnt && sh " + script +
+                   " " + dir.string() + "/mnt'");
+        check(r, "full tmpfs");
+        CHECK(r.output.find("No space left on device") != std::string::npos);
+    } else {
+        WARN("cannot mount a tmpfs in a user namespace here (" << probe.output << "): the full-tmpfs part is skipped");
+    }
+    fs::create_directories(dir / "limited");
+    // 200 blocks of 512 bytes: room for the old files, not for the new EXR.
+    Run r = sh("sh -c \"trap '' XFSZ; ulimit -f 200; sh " + script + " " + (dir / "limited").string() + "\"");
+    check(r, "file-size limit");
+    fs::remove_all(dir);
+}
+
 TEST_CASE("SIGINT stops a render after the pass in flight and writes the image of the passes done", "[cli][signals]") {
     // A render of 10^6 passes (64^2) gets SIGINT after 1.5 s: it writes the image and the
     // statistics of the passes it completed (>= 2; about 900 here), says so and exits with 5. The
