@@ -42,6 +42,7 @@ public:
     }
     std::string name() const override { return settings_.integrator; }
     double regularisationTau() const override { return regularisationTauOf(reg_); }
+    uint64_t invalidRegularisation() const override { return invalidRegularisationOf(reg_); }
 
     void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) override {
         const Camera& cam = scene.camera();

@@ -75,6 +75,10 @@ inline bool regDiffusionOf(const RenderSettings& s) { return s.regDiffusion.valu
 
 // The bound tau of a regulariser's current iteration, for the statistics (0: none).
 inline double regularisationTauOf(const reg::None&) { return 0.0; }
+// regularizer.h (7): the policy's per-vertex values found not to be numbers (None has none).
+inline uint64_t invalidRegularisationOf(const reg::None&) { return 0; }
+template <class Reg>
+uint64_t invalidRegularisationOf(const Reg& r) { return r.invalidValues(); }
 inline double regularisationTauOf(const reg::Jg19& r) { return r.tau(); }
 inline double regularisationTauOf(const reg::Kd13& r) { return r.radius(1); }  // (KD13: r_N of one vertex)
 // (OPSR: N^-lambda or 1; with JG19's bound, --reg jg19,opsr: tau_N)
@@ -105,6 +109,9 @@ struct RenderStats {
     // evaluated a regularised BSDF, and tau of the last iteration (0: no regulariser).
     uint64_t contributions = 0, regularisedContributions = 0;
     double tau = 0.0;
+    // The regulariser's per-vertex values (tau', cone angle, roughness) that were not numbers:
+    // their techniques were refused, nothing of them written (regularizer.h (7)).
+    uint64_t invalidRegularisation = 0;
     bool interrupted = false;  // RenderSettings::stop was set: spp passes of those asked are done
 };
 
@@ -120,6 +127,8 @@ public:
     virtual void finish(const Scene& scene, uint64_t passes) {}
     // The regulariser's bound tau of the current pass (0: none).
     virtual double regularisationTau() const { return 0.0; }
+    // The regulariser's values found not to be numbers so far (regularizer.h (7)).
+    virtual uint64_t invalidRegularisation() const { return 0; }
     // Renders sample index `pass` of every pixel in rows [y0, y1) x cols [x0, x1).
     virtual void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
                             WalkStats& stats) const = 0;

@@ -36,6 +36,7 @@ public:
         reg_.beginIteration(uint64_t(pass) + 1, scene, cfg);
     }
     double regularisationTau() const override { return regularisationTauOf(reg_); }
+    uint64_t invalidRegularisation() const override { return invalidRegularisationOf(reg_); }
     void finish(const Scene&, uint64_t passes) override {
         if (strategies_) strategies_->write(settings_.strategyImages, passes);
     }

@@ -194,6 +194,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     stats.contributions = contributions.load();
     stats.regularisedContributions = regularised.load();
     stats.tau = integrator->regularisationTau();
+    stats.invalidRegularisation = integrator->invalidRegularisation();
     return film.develop(passes);
 }
 

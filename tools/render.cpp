@@ -423,6 +423,8 @@ int main(int argc, char** argv) {
                    : settings.regularizer == "opsr" ? "offset N^-lambda"
                                                     : "tau_N",
                    stats.tau);
+    if (stats.invalidRegularisation > 0)  // (never expected: each is a refused technique, reported)
+        fmt::print(", {} regulariser values not a number (their techniques refused)", stats.invalidRegularisation);
     fmt::print(" -> {}\n", output);
     if (!statsJson.empty()) {
         nlohmann::json j;
@@ -438,6 +440,7 @@ int main(int argc, char** argv) {
         j["samples_per_second"] = sps;
         j["rays_per_second"] = rps;
         j["invalid_samples"] = stats.invalidSamples;
+        j["invalid_regulariser_values"] = stats.invalidRegularisation;
         j["seed"] = settings.seed;
         j["threads"] = threads;
         j["max_depth"] = settings.maxDepth;

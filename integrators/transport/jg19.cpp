@@ -140,6 +140,18 @@ bool containsRegularised(const Technique& tech, int a, int b) {
 }  // namespace
 
 bool Jg19::select(Technique& tech, bool shortcut) const {
+    if (!selectBounds(tech, shortcut)) return false;
+    // regularizer.h (7): a bound that is not a number (or not positive) is refused and counted,
+    // never read as "no request".
+    for (int m = 0; m < 2; ++m)
+        if (tech.regularised[m] >= 0 && !(tech.bound[m] > 0.f)) {
+            invalid_.add();
+            return false;
+        }
+    return true;
+}
+
+bool Jg19::selectBounds(Technique& tech, bool shortcut) const {
     tech.regularised[0] = tech.regularised[1] = -1;
     const PathView path(tech, pathVertexCount(tech));
     if (!settings_.quality) {  // (3): every technique at its own ends
@@ -261,6 +273,10 @@ bool Jg19::select(Technique& tech, bool shortcut) const {
             if (j >= firstCamera) d = Diffusion{v.regState.spread, v.regState.footprint};
             else d = d.next(plainB[j + 1], double(xs[j + 1]->curvature), seg[j]);
             taus[j] = boundAt(d.spread);
+            if (std::isnan(taus[j])) {  // regularizer.h (7): refused and counted, not read as "no request"
+                invalid_.add();
+                return false;
+            }
             regB[j] = path.inner(j) && double(taus[j]) < double(v.regState.rhoBarReg) ? double(taus[j]) : plainB[j];
         }
     }

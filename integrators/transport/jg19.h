@@ -143,6 +143,8 @@ public:
     // Only tau_n (the constructor: n = 1; tests that build paths by hand).
     void setIteration(uint64_t n);
     float tau() const { return radiance_.reg.tau; }
+    // regularizer.h (7): tau' values found not to be numbers (their techniques refused).
+    uint64_t invalidValues() const { return invalid_.count(); }
 
     // (1) The request at the vertices select() chose, with their bounds.
     BsdfContext context(const Technique& tech, End end) const {
@@ -259,6 +261,7 @@ private:
     bool diffusion() const { return settings_.quality && settings_.diffusion; }
     bool cone() const { return settings_.specular == SpecularMode::Cone; }
     bool select(Technique& tech, bool shortcut) const;
+    bool selectBounds(Technique& tech, bool shortcut) const;  // select() before the check (7)
     // The O(1) exit of select() for a connection a - b (a = y[s-1], b = z[t-1], both finite; a
     // technique of the running integrator, so its own segment's term is one of Eq. 17's), in
     // float: the joining segment's term rho_bar_a rho_bar_b (d_path / d)^2, or (BPT, VCM) d_path^2
@@ -283,8 +286,10 @@ private:
     void setLimits();  // loosest_ from tau_n
     // tau' = tau_n / sigma (Eq. 19).
     float boundAt(double spread) const {
+        if (std::isnan(spread)) return float(spread);  // (7): select() refuses it, not tau_n in its place
         return spread > 0.0 ? float(double(radiance_.reg.tau) / spread) : radiance_.reg.tau;
     }
+    InvalidValueCount invalid_;  // regularizer.h (7)
     BsdfContext radiance_{TransportMode::Radiance}, importance_{TransportMode::Importance};
     // The smallest bound a vertex gets: tau_n, or tau_n / kMaxSpread with diffusion ((4), connectible).
     BsdfContext loosest_{TransportMode::Radiance};

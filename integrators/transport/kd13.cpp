@@ -36,7 +36,7 @@ double Kd13::radius(int mollified) const {
 }
 
 double Kd13::coneAngle(int mollified, double length) const {
-    const double l = std::isfinite(length) ? length : farLength_;
+    const double l = std::isinf(length) ? farLength_ : length;  // (a NaN stays NaN: regularizer.h (7))
     return std::atan2(radius(mollified), l);  // arctan(r / l), l >= 0
 }
 
@@ -75,6 +75,10 @@ bool Kd13::selectMollified(Technique& tech) const {
     const Choice c = choose(tech);
     if (c.samplable || c.technique != tech.s) return false;  // another technique's path
     const float eps = float(coneAngle(c.count, c.length));
+    if (std::isnan(eps)) {  // regularizer.h (7): refused and counted
+        invalid_.add();
+        return false;
+    }
     if (!(eps > 0.f)) return false;  // (a cone too narrow for float: nothing to add)
     for (int m = 0; m < 2; ++m) {
         tech.regularised[m] = c.mollified[m];

@@ -68,6 +68,8 @@ public:
     // lambda for a path with `mollified` (1 or 2) vertices, and r_N for it at the current N.
     double lambda(int mollified) const;
     double radius(int mollified) const;
+    // regularizer.h (7): cone half-angles found not to be numbers (their techniques refused).
+    uint64_t invalidValues() const { return invalid_.count(); }
     // eps = arctan(r_N / l) for a connection of length l (in double; l may be +inf: farLength).
     double coneAngle(int mollified, double length) const;
 
@@ -113,6 +115,7 @@ public:
 
 private:
     bool selectMollified(Technique& tech) const;
+    InvalidValueCount invalid_;  // regularizer.h (7)
     Kd13Settings settings_;
     uint64_t n_ = 1;
     double r0_ = 0.0, farLength_ = 0.0;

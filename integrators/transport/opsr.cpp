@@ -200,6 +200,7 @@ float Opsr::requestWith(const PathVertex& v, const float* a, int count) const {
     const float own = v.roughness;
     float g = opsr::accumulatedRoughness(a, count, settings_.attenuation);
     if (settings_.consistent) g = own + float(double(g - own) * offsetScale());
+    if (std::isnan(g)) return g;  // regularizer.h (7): select() refuses it and counts it
     if (!(g > own)) return boundOnly(v);
     return detail::requestCanChange(v, contextFor(TransportMode::Radiance, g)) ? g : -1.f;
 }
@@ -295,6 +296,18 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
 }
 
 bool Opsr::selectRequest(Technique& tech) const {
+    if (!selectRoughness(tech)) return false;
+    // regularizer.h (7): a roughness that is not a number in [0, 1] is refused and counted, never
+    // read as "no request" (the selections below let a NaN through to tech.bound for this).
+    for (int m = 0; m < 2; ++m)
+        if (tech.regularised[m] >= 0 && !(tech.bound[m] >= 0.f && tech.bound[m] <= 1.f)) {
+            invalid_.add();
+            return false;
+        }
+    return true;
+}
+
+bool Opsr::selectRoughness(Technique& tech) const {
     if (settings_.bidirectional) return selectBidirectional(tech);
     if (tech.s == 0) {
         // The emitter hit through z[t-2] (x_1): the regularised sample's where the request changes
@@ -311,7 +324,7 @@ bool Opsr::selectRequest(Technique& tech) const {
         const PathVertex& v = path[count - 1];
         if (v.kind != VertexKind::Surface) return true;  // an endpoint
         const float g = request(path, count);
-        if (g >= 0.f) {
+        if (!(g < 0.f)) {  // (NaN too: (7))
             tech.regularised[m] = x;
             tech.bound[m++] = g;
             return true;
@@ -337,11 +350,11 @@ bool Opsr::selectBidirectional(Technique& tech) const {
     // Glossy ends: each with its own subpath's roughness.
     if (!smooth(a) && a.kind == VertexKind::Surface) {
         const float g = request(tech.y, tech.s);
-        if (g >= 0.f) tech.regularised[m] = tech.s - 1, tech.bound[m++] = g;
+        if (!(g < 0.f)) tech.regularised[m] = tech.s - 1, tech.bound[m++] = g;  // (NaN too: (7))
     }
     if (!smooth(b) && b.kind == VertexKind::Surface) {
         const float g = request(tech.z, tech.t);
-        if (g >= 0.f) tech.regularised[m] = tech.s, tech.bound[m++] = g;
+        if (!(g < 0.f)) tech.regularised[m] = tech.s, tech.bound[m++] = g;
     }
     return (smooth(a) || a.connectible()) && (smooth(b) || b.connectible());
 }
@@ -349,6 +362,10 @@ bool Opsr::selectBidirectional(Technique& tech) const {
 bool Opsr::emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) const {
     const float g = request(z, t);
     if (g < 0.f) return false;
+    if (std::isnan(g)) {  // regularizer.h (7): no sample with it (the emitter hit is refused too)
+        invalid_.add();
+        return false;
+    }
     ctx = contextFor(TransportMode::Radiance, g);
     return true;
 }

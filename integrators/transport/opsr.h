@@ -161,6 +161,8 @@ public:
     double offsetScale() const;
     // (6) JG19's bound tau_n of this pass (0: none).
     float tau() const { return tau_; }
+    // regularizer.h (7): roughnesses found not to be numbers (their techniques refused).
+    uint64_t invalidValues() const { return invalid_.count(); }
 
     // The roughness the request asks for at the last vertex of the subpath path[0..count-1]
     // (path[0] its endpoint, path[1..count-1] surface vertices), with (3) applied; -1 where the
@@ -264,6 +266,8 @@ public:
 
 private:
     bool selectRequest(Technique& tech) const;
+    bool selectRoughness(Technique& tech) const;  // selectRequest() before the check (7)
+    InvalidValueCount invalid_;                    // regularizer.h (7)
     bool selectBidirectional(Technique& tech) const;
     void densitiesBidirectional(const Technique& tech, PathPdfs& pdfs) const;
     bool emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) const;

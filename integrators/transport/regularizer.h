@@ -72,7 +72,16 @@
 //        with the context ctx (an extra ray), evaluated by emitterHit with
 //        Technique::regularisedSample set; select() then refuses the walk's own emitter hits
 //        through z[t-1]. A policy without the member has no such sample (None, JG19, KD13).
+//  (7) A guard on the policy's own per-vertex values (issue 17 item 5): JG19's bound tau', KD13's
+//        cone half-angle, OPSR's accumulated roughness. One that is not a number where select()
+//        computes it (a degenerate vertex, a NaN from upstream) must not quietly read as "no
+//        request" (NaN > 0 is false), which would evaluate the path as if unregularised or drop it
+//        unseen: select() refuses the technique (its contribution is never written) and counts the
+//        value in the policy's InvalidValueCount (invalidValues()), which render reports beside
+//        the invalid samples. None has no values.
 #pragma once
+#include <atomic>
+#include <cstdint>
 #include "bsdf/bsdf.h"
 
 namespace lt {
@@ -111,6 +120,24 @@ struct SubpathState {
     // subpath after its endpoint up to here where a merge can happen (connectible(); +inf with
     // none). The merge terms of Eq. 17 are d_path^2 / (N pi r^2) times these (jg19.h (2)).
     float mergeMin = kInf;
+};
+
+// (7) The count of a policy's values found not to be numbers; shared by the render's threads
+// (relaxed: only the total is read, after the render). A policy is a value type: copying it
+// copies the count.
+class InvalidValueCount {
+public:
+    InvalidValueCount() = default;
+    InvalidValueCount(const InvalidValueCount& o) : n_(o.count()) {}
+    InvalidValueCount& operator=(const InvalidValueCount& o) {
+        n_.store(o.count(), std::memory_order_relaxed);
+        return *this;
+    }
+    void add() const { n_.fetch_add(1, std::memory_order_relaxed); }
+    uint64_t count() const { return n_.load(std::memory_order_relaxed); }
+
+private:
+    mutable std::atomic<uint64_t> n_{0};
 };
 
 // The vertices of the technique that connect, emitterHit or merge evaluates.
