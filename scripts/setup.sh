@@ -4,6 +4,9 @@
 #   bash scripts/setup.sh render   -> out/cornell-box.exr and out/cornell-box.png
 #   bash scripts/setup.sh test     -> the whole ctest suite
 #   bash scripts/setup.sh build    -> only install and build
+#   bash scripts/setup.sh fuzz [SECONDS]
+#                                  -> also clang and its fuzzer runtime: fuzzes the loaders
+#                                     (scripts/fuzz.sh, tests/fuzz/README.md; 30 min each by default)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 action="${1:-render}"
@@ -11,6 +14,7 @@ action="${1:-render}"
 PACKAGES=(build-essential cmake ninja-build pkg-config
   libembree-dev libopenexr-dev libglm-dev libtbb-dev catch2 libcli11-dev libpugixml-dev
   libtinyobjloader-dev libstb-dev nlohmann-json3-dev libfmt-dev zlib1g-dev gnuplot-nox)
+[ "$action" = fuzz ] && PACKAGES+=(clang libclang-rt-14-dev python3)
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -36,5 +40,8 @@ case "$action" in
     ctest --test-dir build -j "$jobs" --output-on-failure --timeout 600
     ;;
   build) ;;
-  *) echo "usage: scripts/setup.sh [render|test|build]" >&2; exit 1 ;;
+  fuzz)
+    scripts/fuzz.sh "${2:-1800}"
+    ;;
+  *) echo "usage: scripts/setup.sh [render|test|build|fuzz [SECONDS]]" >&2; exit 1 ;;
 esac
