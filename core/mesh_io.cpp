@@ -7,6 +7,7 @@
 
 #include <bit>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -200,6 +201,15 @@ public:
     }
     size_t remaining() const { return d_.size() - pos_; }
     bool ascii() const { return fmt_ == PlyFormat::Ascii; }
+    // A list's length: a whole number in [0, 1e6] (a float count type is allowed, as the format
+    // says nothing against it; NaN, a fraction or a count of 1e30 is refused before it is cast).
+    long long listCount(PlyType t, const char* what, const std::string& element, size_t row) {
+        const double c = read(t, what);
+        if (!(c >= 0.0 && c <= 1e6) || c != std::floor(c))
+            throw MeshError(fmt::format("{}: entry {} of element '{}' has an invalid list length {}", path_, row,
+                                        element, c));
+        return (long long)c;
+    }
 
 private:
     const std::string& path_;
@@ -316,8 +326,8 @@ MeshDesc readPly(const std::string& path) {
                 for (size_t i = 0; i < el.props.size(); ++i) {
                     const PlyProp& p = el.props[i];
                     if (p.isList) {
-                        double c = in.read(p.countType, "a vertex list count");
-                        for (long long k = 0; k < (long long)c; ++k) in.read(p.type, "a vertex list");
+                        const long long c = in.listCount(p.countType, "a vertex list count", el.name, v);
+                        for (long long k = 0; k < c; ++k) in.read(p.type, "a vertex list");
                     } else {
                         row[i] = in.read(p.type, "vertex data");
                     }
@@ -341,11 +351,9 @@ MeshDesc readPly(const std::string& path) {
                         in.read(p.type, "face data");
                         continue;
                     }
-                    double c = in.read(p.countType, "a face vertex count");
-                    if (!(c >= 0) || c > 1e6)
-                        throw MeshError(fmt::format("{}: face {} has an invalid vertex count {}", path, f, c));
+                    const long long c = in.listCount(p.countType, "a face vertex count", el.name, f);
                     poly.clear();
-                    for (long long k = 0; k < (long long)c; ++k) poly.push_back(in.read(p.type, "face indices"));
+                    for (long long k = 0; k < c; ++k) poly.push_back(in.read(p.type, "face indices"));
                     if (int(i) != li) continue;
                     if (poly.size() < 3)
                         throw MeshError(fmt::format("{}: face {} has {} vertices (at least 3 needed)", path, f, poly.size()));
@@ -360,12 +368,12 @@ MeshDesc readPly(const std::string& path) {
                 }
             }
         } else {
-            for (size_t r = 0; r < el.count; ++r)
+            // (An element without properties has rows of nothing: a count of 2^60 is not a loop.)
+            for (size_t r = 0; r < el.count && !el.props.empty(); ++r)
                 for (const PlyProp& p : el.props) {
                     if (p.isList) {
-                        double c = in.read(p.countType, el.name.c_str());
-                        if (!(c >= 0) || c > 1e6) throw MeshError(fmt::format("{}: invalid list count in '{}'", path, el.name));
-                        for (long long k = 0; k < (long long)c; ++k) in.read(p.type, el.name.c_str());
+                        const long long c = in.listCount(p.countType, el.name.c_str(), el.name, r);
+                        for (long long k = 0; k < c; ++k) in.read(p.type, el.name.c_str());
                     } else {
                         in.read(p.type, el.name.c_str());
                     }
