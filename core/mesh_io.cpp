@@ -48,15 +48,51 @@ struct ObjKeyHash {
 };
 }  // namespace
 
+namespace {
+
+// What tinyobjloader (Debian's 2.0) is given of an OBJ file. Two of its parsers have undefined
+// behaviour on bad input (found by fuzz_obj, tests/fuzz/README.md): a skin-weight line `vw` with a
+// joint id of 1e32, inf or NaN casts that float to int, and a number whose exponent has ten
+// digits overflows an int while it is read. We use neither skin weights nor such numbers: `vw`
+// lines are blanked (the line count stays, for its messages), and a number with an exponent of
+// more than three digits (beyond float's range either way) is refused here, naming the line.
+std::string objTextForParser(const std::string& path, std::string text) {
+    size_t line = 1;
+    for (size_t i = 0; i < text.size();) {
+        const size_t end = std::min(text.find('\n', i), text.size());
+        size_t k = i;
+        while (k < end && (text[k] == ' ' || text[k] == '\t')) ++k;
+        if (end - k >= 3 && text[k] == 'v' && text[k + 1] == 'w' && (text[k + 2] == ' ' || text[k + 2] == '\t'))
+            std::fill(text.begin() + long(k), text.begin() + long(end), ' ');
+        // Numeric tokens: a digit (after an optional sign or point) and an exponent.
+        for (size_t j = k; j < end; ++j) {
+            if (text[j] != 'e' && text[j] != 'E') continue;
+            if (j == i || !(std::isdigit((unsigned char)text[j - 1]) || text[j - 1] == '.')) continue;
+            size_t d = j + 1;
+            if (d < end && (text[d] == '+' || text[d] == '-')) ++d;
+            size_t digits = 0;
+            while (d + digits < end && std::isdigit((unsigned char)text[d + digits])) ++digits;
+            if (digits > 3)
+                throw MeshError(fmt::format("{}:{}: a number with the exponent '{}' is out of range", path, line,
+                                            text.substr(j, d + digits - j)));
+        }
+        i = end + 1;
+        ++line;
+    }
+    return text;
+}
+
+}  // namespace
+
 MeshDesc readObj(const std::string& path, bool flipV) {
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) throw MeshError(fmt::format("{}: file not found", path));
+    const std::string text = objTextForParser(path, readAll(path));
     tinyobj::ObjReaderConfig cfg;
     cfg.triangulate = true;
     cfg.vertex_color = false;
-    cfg.mtl_search_path = std::filesystem::path(path).parent_path().string();
     tinyobj::ObjReader reader;
-    if (!reader.ParseFromFile(path, cfg))
+    // Parsed from memory, with no material library: the materials are not used, and a `mtllib`
+    // line then opens no file (a FIFO or /dev/zero named there would block or never end).
+    if (!reader.ParseFromString(text, "", cfg))
         throw MeshError(fmt::format("{}: cannot read the OBJ file: {}", path, reader.Error()));
     const tinyobj::attrib_t& at = reader.GetAttrib();
     size_t nv = at.vertices.size() / 3, nn = at.normals.size() / 3, nt = at.texcoords.size() / 2;

@@ -5,6 +5,8 @@
 //   other exception (std::bad_alloc from a declared size, std::length_error, ...) fails here;
 // - render on a scene holding it exits with code 2 and names the scene file and line (for a
 //   mesh: the line of the <shape> that refers to it) and the mesh file.
+// An input named loads_* is a finding whose file is good once the bug is fixed (the undefined
+// behaviour was on a line we now leave out): it must load, through the same entry point.
 // A crash or a sanitizer report of the fuzz build shows here as a crashed test process (the
 // ordinary build has no sanitizers: the fuzz build is where such an input was found).
 #include <catch2/catch.hpp>
@@ -65,6 +67,10 @@ TEST_CASE("Every input kept from fuzzing the loaders is refused with a clear err
             bool loaded = true;
             REQUIRE_NOTHROW(loaded = fuzz::loadInput(t, reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), &error));
             INFO("loader says: " << error);
+            if (input.filename().string().rfind("loads_", 0) == 0) {
+                CHECK(loaded);
+                continue;
+            }
             CHECK_FALSE(loaded);
             // The loader's message names the file it could not read (a scene error may name an
             // included piece instead of scene.xml: the folder is the same).
