@@ -42,7 +42,7 @@ bool Film::splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t 
 std::string Film::state() const {
     const size_t n = sum_.size();
     std::string out;
-    out.resize(n * (2 * sizeof(glm::dvec3) + sizeof(uint32_t)) + sizeof(uint64_t));
+    out.resize(n * kBytesPerPixel + sizeof(uint64_t));
     char* p = out.data();
     std::memcpy(p, sum_.data(), n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
     std::memcpy(p, count_.data(), n * sizeof(uint32_t)), p += n * sizeof(uint32_t);
@@ -54,7 +54,7 @@ std::string Film::state() const {
 
 void Film::restore(const std::string& bytes) {
     const size_t n = sum_.size();
-    if (bytes.size() != n * (2 * sizeof(glm::dvec3) + sizeof(uint32_t)) + sizeof(uint64_t))
+    if (bytes.size() != n * kBytesPerPixel + sizeof(uint64_t))
         throw std::runtime_error("the saved film is not one of " + std::to_string(width_) + "x" + std::to_string(height_));
     const char* p = bytes.data();
     std::memcpy(sum_.data(), p, n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);

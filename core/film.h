@@ -23,6 +23,11 @@ struct SplatBuffer {
 
 class Film {
 public:
+    // What the film keeps of a pixel (two double sums and a sample count), and the most pixels a
+    // scene may ask for (8192 x 8192, 3.5 GB of film; the loader refuses more before allocating).
+    static constexpr size_t kBytesPerPixel = 2 * sizeof(glm::dvec3) + sizeof(uint32_t);
+    static constexpr int64_t kMaxPixels = int64_t(1) << 26;
+
     Film(int width, int height, FilterType filter);
     int width() const { return width_; }
     int height() const { return height_; }

@@ -8,6 +8,7 @@
 #include <set>
 #include "bsdf/ior.h"
 #include "bsdf/roughness_bound.h"
+#include "core/film.h"
 #include "core/loader_xml.h"
 #include "core/mesh_io.h"
 
@@ -269,13 +270,12 @@ private:
         C.height = p.getInt("height", 576);
         if (C.width <= 0 || C.width > 65536) p.failAt("width", fmt::format("must be in 1..65536 (got {})", C.width));
         if (C.height <= 0 || C.height > 65536) p.failAt("height", fmt::format("must be in 1..65536 (got {})", C.height));
-        // The film keeps 52 bytes a pixel (two double sums and a count) besides the images it writes:
-        // a size no machine of ours can hold is refused here, before anything is allocated.
-        constexpr int64_t kMaxPixels = int64_t(1) << 26;  // 8192 x 8192, 3.5 GB of film
-        if (int64_t(C.width) * C.height > kMaxPixels)
+        // A film no machine of ours can hold is refused here, before anything is allocated.
+        if (int64_t(C.width) * C.height > Film::kMaxPixels)
             p.failAt("width", fmt::format("the film of {} x {} pixels is too large: at most {} pixels (8192 x 8192), "
-                                          "since the film keeps 52 bytes a pixel ({:.1f} GB here)",
-                                          C.width, C.height, kMaxPixels, double(C.width) * C.height * 52 / 1e9));
+                                          "since the film keeps {} bytes a pixel ({:.1f} GB here)",
+                                          C.width, C.height, Film::kMaxPixels, Film::kBytesPerPixel,
+                                          double(C.width) * C.height * double(Film::kBytesPerPixel) / 1e9));
         bool sawFilter = false;
         for (const Elem* o : p.objects) {
             if (o->tag == "rfilter" && !sawFilter) rfilter(*o), sawFilter = true;

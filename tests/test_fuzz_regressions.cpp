@@ -24,13 +24,6 @@ using namespace lt;
 
 namespace {
 
-std::string readBytes(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
 std::vector<fs::path> inputsOf(fuzz::Target t) {
     std::vector<fs::path> v;
     fs::path dir = fs::path(LT_SOURCE_DIR) / "tests/fuzz/regressions" / fuzz::targetName(t);
@@ -62,7 +55,7 @@ TEST_CASE("Every input kept from fuzzing the loaders is refused with a clear err
         for (const fs::path& input : inputsOf(t)) {
             INFO(fuzz::targetName(t) << " input " << input.string());
             ++total;
-            std::string bytes = readBytes(input);
+            std::string bytes = test::readText(input);
             std::string error;
             bool loaded = true;
             REQUIRE_NOTHROW(loaded = fuzz::loadInput(t, reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), &error));
@@ -104,11 +97,11 @@ TEST_CASE("Every input kept from fuzzing the loaders is refused with a clear err
 // point itself must not refuse a good file, or every fuzz finding above would be vacuous.
 TEST_CASE("The fuzz entry point loads good scene and mesh files", "[fuzz]") {
     const std::string src = LT_SOURCE_DIR;
-    std::string xml = readBytes(src + "/scenes/hard/specular-point-view.xml");  // no includes, no meshes
+    std::string xml = test::readText(src + "/scenes/hard/specular-point-view.xml");  // no includes, no meshes
     std::string error;
     CHECK(fuzz::loadInput(fuzz::Target::Scene, reinterpret_cast<const uint8_t*>(xml.data()), xml.size(), &error));
     INFO(error);
-    std::string obj = readBytes(src + "/scenes/hard/meshes/ring.obj");
+    std::string obj = test::readText(src + "/scenes/hard/meshes/ring.obj");
     CHECK(fuzz::loadInput(fuzz::Target::Obj, reinterpret_cast<const uint8_t*>(obj.data()), obj.size(), &error));
     std::string ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
                       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";

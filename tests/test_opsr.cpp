@@ -36,13 +36,6 @@ float roughnessAt(double c) {
     return float(s * s);
 }
 
-std::string readText(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 }  // namespace
 
 TEST_CASE("OPSR bins, window indices and Eq. 11 by hand", "[opsr]") {

@@ -140,15 +140,9 @@ bool containsRegularised(const Technique& tech, int a, int b) {
 }  // namespace
 
 bool Jg19::select(Technique& tech, bool shortcut) const {
-    if (!selectBounds(tech, shortcut)) return false;
     // regularizer.h (7): a bound that is not a number (or not positive) is refused and counted,
     // never read as "no request".
-    for (int m = 0; m < 2; ++m)
-        if (tech.regularised[m] >= 0 && !(tech.bound[m] > 0.f)) {
-            invalid_.add();
-            return false;
-        }
-    return true;
+    return selectBounds(tech, shortcut) && boundsValid(tech, [](float b) { return b > 0.f; }, invalid_);
 }
 
 bool Jg19::selectBounds(Technique& tech, bool shortcut) const {

@@ -296,15 +296,9 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
 }
 
 bool Opsr::selectRequest(Technique& tech) const {
-    if (!selectRoughness(tech)) return false;
     // regularizer.h (7): a roughness that is not a number in [0, 1] is refused and counted, never
     // read as "no request" (the selections below let a NaN through to tech.bound for this).
-    for (int m = 0; m < 2; ++m)
-        if (tech.regularised[m] >= 0 && !(tech.bound[m] >= 0.f && tech.bound[m] <= 1.f)) {
-            invalid_.add();
-            return false;
-        }
-    return true;
+    return selectRoughness(tech) && boundsValid(tech, [](float g) { return g >= 0.f && g <= 1.f; }, invalid_);
 }
 
 bool Opsr::selectRoughness(Technique& tech) const {

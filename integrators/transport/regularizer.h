@@ -165,6 +165,19 @@ struct Technique {
     bool regularisedSample = false;
 };
 
+// (7) True where valid(bound) holds at every vertex select() regularised in `tech` (write valid
+// so that a NaN fails it); otherwise the value is counted in `invalid` and the answer is false
+// (the technique is refused).
+template <class Valid>
+bool boundsValid(const Technique& tech, Valid&& valid, const InvalidValueCount& invalid) {
+    for (int m = 0; m < 2; ++m)
+        if (tech.regularised[m] >= 0 && !valid(tech.bound[m])) {
+            invalid.add();
+            return false;
+        }
+    return true;
+}
+
 // The two ends of a technique's connection.
 enum class End { Light, Camera };
 
