@@ -32,7 +32,9 @@ public:
                                                            maxDepthOf(settings_));
         // The techniques a regulariser's choice may count on: next-event estimation's connection
         // (none when only BSDF sampling runs).
-        const MisConfig cfg{strategy_ == Strategy::Bsdf ? TechniqueSet::None : TechniqueSet::PathTracer};
+        // (With KD13's cone hits, BSDF sampling alone still samples next-event estimation's
+        // mollified paths: kd13.h (5).)
+        const MisConfig cfg{strategy_ == Strategy::Bsdf && !kConeHits ? TechniqueSet::None : TechniqueSet::PathTracer};
         reg_.beginIteration(uint64_t(pass) + 1, scene, cfg);
     }
     double regularisationTau() const override { return regularisationTauOf(reg_); }
@@ -101,6 +103,11 @@ public:
                            stats);
                 }
             }
+            // s = 0 through z[t-1]: a delta light in the cone of a BSDF sample (regularizer.h (8): KD13).
+            if constexpr (kConeHits) {
+                if (strategy_ != Strategy::Nee && t <= maxDepth && !v.infinite && reg_.coneHitsAt(v))
+                    coneHits(scene, z, t, rng, readLimit, L, pixel, stats);
+            }
             // s = 0 through z[t-1] with the regulariser's own BSDF sample (regularizer.h (6): OPSR).
             if constexpr (requires { Reg::kEmitterSample; }) {
                 BsdfContext ctx;
@@ -153,6 +160,38 @@ private:
         }
     }
 
+    // The emitter-hit technique through the mollified smooth vertex z[t-1] (regularizer.h (8),
+    // kd13.h (5)): one sample of z[t-1]'s delta BSDF on a stream split from the walk's (so every
+    // other contribution stays as it was), and each delta light on the side of the sampled lobe
+    // goes through connect, which evaluates the cone of next-event estimation's connection to it
+    // (nothing outside the cone, before the shadow ray) and writes the path's densities with the
+    // cone hit's among them. The value is next-event estimation's for that light times
+    // sel / P(lobe): the light found by the lobe's cone instead of picked with probability sel.
+    void coneHits(const Scene& scene, const PathVertex* z, int t, const Rng& rng, int readLimit, Color& L,
+                  uint32_t pixel, WalkStats& stats) const {
+        const PathVertex& v = z[t - 1];
+        Rng side = rng.split(uint64_t(t) + 0x632be59bd9b4e019ull);
+        BsdfSample bs;
+        const float uLobe = side.uniform();
+        if (!v.bsdf().sample(v.wo, uLobe, side.uniform2(), kRadianceContext, bs) || !(bs.lobe & kDelta) ||
+            !(bs.pdfFwd.value > 0.f))
+            return;
+        const float sampleSide = glm::dot(v.shading.n, bs.wi);
+        const auto& lights = scene.lights();
+        for (size_t li = 0; li < lights.size(); ++li) {
+            if (!lights[li].isDelta()) continue;
+            PathVertex y;
+            if (!lightEndpoint(scene, reg_, li, v.p, Vec2(0.5f), y)) continue;  // (a delta light ignores u)
+            if (!(glm::dot(v.shading.n, y.p - v.p) * sampleSide > 0.f)) continue;  // the other lobe's cone
+            Connection conn;
+            if (!connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit)) continue;
+            const float sel = scene.lightDistribution().probability(li);
+            const Color c = conn.contribution * (sel / bs.pdfFwd.value);
+            const float w = strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 0, TechniqueSet::PathTracer) : 1.f;
+            record(L, c * w, 0, t + 1, pixel, true, strategies_ && singularPath(&y, 1, z, t), stats);
+        }
+    }
+
     // A weighted contribution of technique (s, t), with whether its own technique was regularised
     // and whether no unregularised technique could produce it (singularPath; with strategy images).
     void record(Color& L, const Color& c, int s, int t, uint32_t pixel, bool regularised, bool singular,
@@ -162,6 +201,7 @@ private:
         if constexpr (Reg::kPerTechnique) stats.countContribution(c, regularised);
     }
 
+    static constexpr bool kConeHits = requires { Reg::kConeHits; };
     enum class Strategy { Mis, Nee, Bsdf };
     RenderSettings settings_;
     Reg reg_;

@@ -291,6 +291,60 @@ TEST_CASE("KD13: one technique per regularised path with weight 1, unregularised
     CHECK(plainPaths > 3000);
 }
 
+TEST_CASE("KD13 in the path tracer: the cone hit's density is P(lobe), and it and next-event estimation share each path", "[kd13][mis]") {
+    // kd13.h (5). Camera walks in scenes/cornell-box-point-in-glass.xml (the one light a point at
+    // the centre of a smooth glass sphere, int_ior bk7 = 1.5046 in air 1.000277): at every glass vertex z[t-1] where next-event
+    // estimation through the cone carries something, the path's densities must hold the cone
+    // hit's: P(lobe) of the delta lobe on the light's side, computed here from the Fresnel
+    // equations (transmission, 1 - F, from outside the sphere; reflection, F, from inside, where
+    // the light is on wo's side), against next-event estimation's light-selection probability 1;
+    // the two power-heuristic weights must be sel^2 / (sel^2 + P^2) and P^2 / (sel^2 + P^2) and sum
+    // to one (float). A cone of fixed radius 3 (eps ~ 1.5 rad at the light's 0.3) lets most glass
+    // vertices in. Taking the lobe on wo's side, or 1 - P, or no hit density fails it.
+    SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml", {{"res", "16"}});
+    Scene scene(desc);
+    REQUIRE(scene.lights().size() == 1);
+    const MisConfig cfg{TechniqueSet::PathTracer};
+    reg::Kd13 kd(reg::Kd13Settings{3.0, 0.0});
+    kd.beginIteration(3, scene, cfg);
+    WalkStats ws;
+    std::array<PathVertex, kMaxPathVertices> z;
+    int outside = 0, inside = 0;
+    for (uint64_t i = 0; i < 4000; ++i) {
+        Rng rng(i, 17);
+        const int nz = cameraWalk(scene, kd, Vec2(rng.uniform() * 16, rng.uniform() * 16), rng, 8, 100, z.data(), ws);
+        for (int t = 2; t <= nz; ++t) {
+            const PathVertex& v = z[t - 1];
+            if (!kd.coneHitsAt(v)) continue;
+            PathVertex y;
+            REQUIRE(lightEndpoint(scene, kd, 0, v.p, Vec2(0.5f), y));
+            Connection c;
+            if (!connect(scene, kd, &y, 1, z.data(), t, c, ws, 0)) continue;
+            INFO("walk " << i << " t=" << t);
+            const Vec3 toLight = glm::normalize(y.p - v.p);
+            const float cosO = glm::dot(v.wo, v.shading.n), cosL = glm::dot(toLight, v.shading.n);
+            const float eta = 1.5046f / 1.000277f;
+            const float F = fresnelDielectric(std::abs(cosO), cosO > 0.f ? eta : 1.f / eta);
+            const bool sameSide = cosO * cosL > 0.f;
+            const double P = sameSide ? F : 1.0 - F;
+            (sameSide ? inside : outside) += 1;
+            CHECK(c.pdfs.regularised);
+            CHECK(c.pdfs.fromCamera[0] == Approx(P).epsilon(1e-5));
+            CHECK(c.pdfs.fromLight[0] == 1.f);
+            const double wNee = misWeight(c.pdfs, 1, TechniqueSet::PathTracer),
+                         wHit = misWeight(c.pdfs, 0, TechniqueSet::PathTracer);
+            CHECK(wNee == Approx(1.0 / (1.0 + P * P)).epsilon(1e-5));
+            CHECK(wHit == Approx(P * P / (1.0 + P * P)).epsilon(1e-5));
+            CHECK(std::abs(wNee + wHit - 1.0) < 1e-6);
+            // The plain sum (no closed form) gives the same.
+            CHECK(misWeightGeneral(c.pdfs, 0, cfg) == Approx(wHit).epsilon(1e-6));
+        }
+    }
+    INFO(outside << " connections from outside the glass, " << inside << " from inside");
+    CHECK(outside > 100);
+    CHECK(inside > 20);
+}
+
 TEST_CASE("KD13 on a scene where every path is samplable renders bit-identically to no regulariser", "[kd13][render]") {
     // The box with a glass sphere and a mirror ball lit by an area light: every path ends on a
     // light the camera walk can hit, so KD13 mollifies nothing (selectivity, KD13 Sec. 4.4), for
@@ -319,26 +373,45 @@ TEST_CASE("KD13 renders a point light seen through glass, with the energy of the
     // 512 spp). Tolerances: PT 4% at 1024 spp, BPT and VCM 5% at 512 spp (over 3 standard
     // deviations each). A missing 1/eta^2 (x 2.26), F in place of 1 - F (x 0.04) or a wrong Omega
     // fails them.
+    // PT has two techniques for these paths (kd13.h (5)): next-event estimation through the cone
+    // and the cone hit of a BSDF sample. With --pt-strategy bsdf the cone hits alone must give the
+    // same energy (measured 0.927, 0.909, 0.904, 0.907 at 1024 spp, seeds 3-6, against next-event
+    // estimation with MIS 0.924, 0.909, 0.906, 0.909: the same tolerance). With MIS, the cone
+    // hits' share of the singular image is predicted exactly: L S E (the image s0_t3 of the cone
+    // hit, t = 3 camera-side vertices) carries T = 1 - F(0) = 0.9594 of the singular energy (the
+    // rest leaves after internal reflections), and the cone hit's weight there is
+    // P^2 / (sel^2 + P^2) with P = T (the refraction lobe's probability) and sel = 1 (one light):
+    // 0.4793, so the share is 0.4597 (measured 0.4602, 0.4595, 0.4602, 0.4597: the ratio's noise
+    // is small because both images hold the same few pixels). Tolerance 0.01: balance-heuristic
+    // weights (0.49 x 0.959 = 0.470), the reflection lobe's P (0.04: share 0.0016) or sel 1/2 fail.
     const double tanHalf = std::tan(19.5 * std::numbers::pi / 360.0);
     const double direct = 5.0 / (6.8 * 6.8 * 4.0 * tanHalf * tanHalf);
     SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml", {{"res", "64"}});
     Scene scene(desc);
     const std::filesystem::path dir = lt::test::tempDir("lt_kd13", "singular");
-    auto singularMean = [&](const std::string& integrator, int spp, double r0) {
+    auto singularMean = [&](const std::string& integrator, int spp, double r0, const std::string& strategy = "mis",
+                            const std::string& image = "singular") {
         RenderSettings s = settingsFor(integrator, spp);
         s.maxDepth = 8;
         s.regularizer = "kd13";
         s.regR0 = r0;
         s.regLambda = 0.0;
-        s.strategyImages = (dir / integrator).string();
+        s.ptStrategy = strategy;
+        const std::filesystem::path out = dir / (integrator + strategy);
+        s.strategyImages = out.string();
         RenderStats st;
         renderImage(scene, s, st);
-        return cropMean(readImage((dir / integrator / "singular.exr").string()), 64, 0, 0, 64, 64);
+        return cropMean(readImage((out / (image + ".exr")).string()), 64, 0, 0, 64, 64);
     };
     const double pt = singularMean("pt", 1024, 0.03), bpt = singularMean("bpt", 512, 0.65),
                  vcm = singularMean("vcm", 512, 0.65);
-    INFO("direct " << direct << ": PT " << pt << ", BPT " << bpt << ", VCM " << vcm);
+    const double hitShare = cropMean(readImage((dir / "ptmis" / "s0_t3.exr").string()), 64, 0, 0, 64, 64) / pt;
+    const double ptHits = singularMean("pt", 1024, 0.03, "bsdf");
+    INFO("direct " << direct << ": PT " << pt << " (cone hits' share of it " << hitShare << "), PT cone hits alone "
+                   << ptHits << ", BPT " << bpt << ", VCM " << vcm);
     CHECK(std::abs(pt / direct - 1.0) < 0.04);
+    CHECK(std::abs(ptHits / direct - 1.0) < 0.04);
+    CHECK(std::abs(hitShare - 0.4597) < 0.01);
     CHECK(std::abs(bpt / direct - 1.0) < 0.05);
     CHECK(std::abs(vcm / direct - 1.0) < 0.05);
     std::filesystem::remove_all(dir);

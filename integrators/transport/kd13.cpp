@@ -94,6 +94,31 @@ void Kd13::densities(const Technique& tech, PathPdfs& P) const {
     for (int k = 0; k <= P.n; ++k) P.connectionScale[k] = k == tech.s ? 1.f : 0.f;
     for (int i = 0; i < P.n; ++i) P.mergeScale[i] = 0.f;
     P.regularised = true;
+    // (5): in the path tracer the cone hit competes with next-event estimation (the chosen
+    // technique there, whose camera end is the mollified vertex).
+    if (set_ == TechniqueSet::PathTracer && tech.s == 1 && boundAt(tech, End::Camera) > 0.f) {
+        const float p = coneHitDensity(tech);
+        if (p > 0.f) {
+            P.fromCamera[0] = p;
+            P.lightHittable = true;
+            P.connectionScale[0] = 1.f;
+        }
+    }
+}
+
+float Kd13::coneHitDensity(const Technique& tech) {
+    const PathVertex& v = tech.z[tech.t - 1];
+    const float lightSide = glm::dot(v.shading.n, tech.y[0].p - v.p);
+    // The delta lobes' probabilities from the BSDF's own sampling (bsdf.h: a delta sample's pdfFwd
+    // is the probability of its lobe): uLobe 0 and just below 1 reach both lobes of a dielectric.
+    const SurfaceBsdf bsdf = v.bsdf();
+    for (float uLobe : {0.f, 0x1.fffffep-1f}) {
+        BsdfSample bs;
+        if (bsdf.sample(v.wo, uLobe, Vec2(0.5f), kRadianceContext, bs) && (bs.lobe & kDelta) &&
+            glm::dot(v.shading.n, bs.wi) * lightSide > 0.f)
+            return bs.pdfFwd.value;
+    }
+    return 0.f;
 }
 
 }  // namespace lt::reg

@@ -38,9 +38,24 @@
 // (4) Where: connections only (the walks, emitter hits and merges are untouched); connect() may
 //     end at a smooth vertex (connectible), and select() lets it contribute only as the chosen
 //     estimator. MIS: the chosen technique's density is its sampling density; the others have
-//     factor 0 (densities()). Paths that some technique samples keep their unbiased weights exactly
+//     factor 0 (densities()), but for the path tracer's cone hit (5). Paths that some technique samples keep their unbiased weights exactly
 //     (select() returns "unregularised" and the routine runs as without a regulariser), so a scene
 //     where every path is samplable renders bit-identically to --reg none.
+// (5) The path tracer's second technique for a mollified path (regularizer.h (8)). In the path
+//     tracer every path (2) mollifies is a delta light reached through a smooth camera vertex
+//     z[t-1], and the one candidate is next-event estimation there. The cone lets a BSDF-sampled
+//     ray count the light too: z[t-1] samples its delta BSDF (on a stream of its own), and a
+//     light whose direction lies in the cone of half-angle eps around the sampled ideal direction
+//     is counted, eps that of next-event estimation's connection to it (the same segment, so the
+//     same cone: both techniques estimate one integrand). Its value is next-event estimation's for
+//     that light and lobe times sel / P(lobe) (sel: the probability next-event estimation picks
+//     the light); every delta light in the cone counts. Its density in the MIS sum is the cone's:
+//     the probability P(lobe) that the sample's cone holds the light, the lobe being the one on
+//     the light's side of the surface (the cone is cut by the horizon, so at most one lobe's cone
+//     holds a direction). densities() writes it as the technique s = 0's density of x_0, against
+//     next-event estimation's sel: power-heuristic weights sel^2 / (sel^2 + P^2) and
+//     P^2 / (sel^2 + P^2), which sum to one for every light and lobe. With --pt-strategy nee only
+//     next-event estimation runs, with bsdf only the cone hits (weight 1).
 #pragma once
 #include <cstdint>
 #include "integrators/transport/path.h"
@@ -96,6 +111,12 @@ public:
     void start(PathVertex&) const {}
     void extend(PathVertex&, PathVertex&) const {}
     bool connectible(const PathVertex& v) const { return v.connectible() || mollifiable(v); }
+    // (5), regularizer.h (8): the path tracer's cone hits at camera vertex v.
+    static constexpr bool kConeHits = true;
+    bool coneHitsAt(const PathVertex& v) const { return set_ == TechniqueSet::PathTracer && mollifiable(v); }
+    // (5): the density of the cone hit on the path of next-event estimation `tech` (s = 1, its
+    // camera end z[t-1] mollified): P(lobe) of z[t-1]'s delta lobe on the light's side, 0 if none.
+    static float coneHitDensity(const Technique& tech);
     bool mergeable(const PathVertex& v) const { return v.connectible(); }
     // The common answers inline: a merge (at a non-delta vertex) or an emitter hit samples its
     // path itself, and so does a connection whose ends are both non-delta.

@@ -271,6 +271,12 @@ inline int misReadLimit(const MisConfig& cfg) {
 // A light endpoint for next-event estimation (technique s = 1), sampled from the scene's lights.
 template <class Reg>
 inline bool sampleLightVertex(const Scene& scene, const Reg& reg, const Vec3& refP, Rng& rng, PathVertex& out);
+// The same endpoint for light li of the scene's list, chosen by the caller (with u for its
+// position: a delta light ignores it); its densities and throughput carry the probability with
+// which sampleLightVertex picks li.
+template <class Reg>
+inline bool lightEndpoint(const Scene& scene, const Reg& reg, size_t li, const Vec3& refP, const Vec2& u,
+                          PathVertex& out);
 
 struct Connection {
     Color contribution{0.f};  // unweighted: beta_y * f_y * G * f_z * beta_z, visibility included

@@ -181,7 +181,12 @@ inline bool sampleLightVertex(const Scene& scene, const Reg& reg, const Vec3& re
     if (scene.lights().empty()) return false;
     float uSel = rng.uniform();
     Vec2 u = rng.uniform2();
-    size_t li = scene.lightDistribution().sample(uSel);
+    return lightEndpoint(scene, reg, scene.lightDistribution().sample(uSel), refP, u, out);
+}
+
+template <class Reg>
+inline bool lightEndpoint(const Scene& scene, const Reg& reg, size_t li, const Vec3& refP, const Vec2& u,
+                          PathVertex& out) {
     const Light& l = scene.lights()[li];
     float sel = scene.lightDistribution().probability(li);
     LightSampleLi ls = l.sampleLi(scene, refP, u);

@@ -79,6 +79,13 @@
 //        unseen: select() refuses the technique (its contribution is never written) and counts the
 //        value in the policy's InvalidValueCount (invalidValues()), which render reports beside
 //        the invalid samples. None has no values.
+//  (8) Optional: the path tracer's cone hits (KD13, kd13.h (5)).
+//        kConeHits = true and coneHitsAt(v): at camera vertex v where it returns true, the path
+//        tracer draws a BSDF sample of v's own (delta) BSDF on a stream split from the walk's, and
+//        counts each delta light whose direction lies in the cone of the sampled lobe: the
+//        emitter-hit technique of the mollified path, evaluated through connect (the cone, the
+//        shadow ray, the densities) and weighted by MIS against next-event estimation there.
+//        A policy without the member has no such hits (None, JG19, OPSR).
 #pragma once
 #include <atomic>
 #include <cstdint>
