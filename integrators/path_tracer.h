@@ -177,9 +177,7 @@ private:
             !(bs.pdfFwd.value > 0.f))
             return;
         const float sampleSide = glm::dot(v.shading.n, bs.wi);
-        const auto& lights = scene.lights();
-        for (size_t li = 0; li < lights.size(); ++li) {
-            if (!lights[li].isDelta()) continue;
+        for (const uint32_t li : reg_.deltaLights()) {
             PathVertex y;
             if (!lightEndpoint(scene, reg_, li, v.p, Vec2(0.5f), y)) continue;  // (a delta light ignores u)
             if (!(glm::dot(v.shading.n, y.p - v.p) * sampleSide > 0.f)) continue;  // the other lobe's cone

@@ -24,6 +24,9 @@ void Kd13::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) 
     farLength_ = radius > 0.0 ? 2.0 * radius : 1.0;
     set_ = cfg.set;
     merging_ = cfg.merging;
+    deltaLights_.clear();
+    for (size_t i = 0; i < scene.lights().size(); ++i)
+        if (scene.lights()[i].isDelta()) deltaLights_.push_back(uint32_t(i));
 }
 
 double Kd13::lambda(int mollified) const {

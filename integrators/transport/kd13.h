@@ -58,6 +58,7 @@
 //     next-event estimation runs, with bsdf only the cone hits (weight 1).
 #pragma once
 #include <cstdint>
+#include <vector>
 #include "integrators/transport/path.h"
 
 namespace lt::reg {
@@ -113,7 +114,11 @@ public:
     bool connectible(const PathVertex& v) const { return v.connectible() || mollifiable(v); }
     // (5), regularizer.h (8): the path tracer's cone hits at camera vertex v.
     static constexpr bool kConeHits = true;
-    bool coneHitsAt(const PathVertex& v) const { return set_ == TechniqueSet::PathTracer && mollifiable(v); }
+    bool coneHitsAt(const PathVertex& v) const {
+        return set_ == TechniqueSet::PathTracer && !deltaLights_.empty() && mollifiable(v);
+    }
+    // The scene's delta lights (indices into Scene::lights()), the only ones a cone hit can count.
+    const std::vector<uint32_t>& deltaLights() const { return deltaLights_; }
     // (5): the density of the cone hit on the path of next-event estimation `tech` (s = 1, its
     // camera end z[t-1] mollified): P(lobe) of z[t-1]'s delta lobe on the light's side, 0 if none.
     static float coneHitDensity(const Technique& tech);
@@ -142,6 +147,7 @@ private:
     double r0_ = 0.0, farLength_ = 0.0;
     TechniqueSet set_ = TechniqueSet::Bidirectional;
     bool merging_ = false;
+    std::vector<uint32_t> deltaLights_;
 };
 
 }  // namespace lt::reg
