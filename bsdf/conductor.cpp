@@ -44,15 +44,19 @@ public:
         if (!(wom > 0.f)) return false;
         const Vec3 wi = reflectAbout(wo, m);
         if (!(wi.z > 0.f)) return false;
-        const BsdfEval e = evalRough(mf, wo, wi);
-        if (!(e.pdfFwd.value > 0.f) || !std::isfinite(e.pdfFwd.value)) return false;
+        // The densities only (evalRough's, at the pair's half vector): the weight below is the
+        // value's closed form.
+        const MicrofacetReflectionTerms r = microfacetReflectionTerms(mf, wo, wi);
+        if (!(r.value > 0.f)) return false;  // (evalRough's densities are 0 there)
+        const float pdfFwd = r.reflectDensity(wo, r.gO);
+        if (!(pdfFwd > 0.f) || !std::isfinite(pdfFwd)) return false;
         const float g1 = mf.G1(wo, m);
         if (!(g1 > 0.f)) return false;
         out.wi = wi;
         // f cos / pdf = F D G2 / (4 cos_o) / (G1(wo) D / (4 cos_o)) = F G2 / G1(wo): no overflow.
-        out.weight = specR_ * fresnelConductor(wom, eta_, k_) * (mf.G2(wo, wi, m) / g1);
-        out.pdfFwd = e.pdfFwd;
-        out.pdfRev = e.pdfRev;
+        out.weight = specR_ * fresnelConductor(wom, eta_, k_) * (mf.G2(wo, wi, g1, mf.G1(wi, m)) / g1);
+        out.pdfFwd = SolidAnglePdf(pdfFwd);
+        out.pdfRev = SolidAnglePdf(r.reflectDensity(wi, r.gI));
         out.lobe = kReflection | kGlossy;
         out.eta = 1.f;
         return true;
@@ -83,29 +87,19 @@ private:
         return e;
     }
 
-    // The rough lobe with the alphas of one call (the material's, or the regularised ones).
+    // The rough lobe with the alphas of one call (the material's, or the regularised ones). The
+    // densities of sampling the reflection about h, D_w(h) / (4 w.h), from the value's terms.
     BsdfEval evalRough(const Microfacet& mf, const Vec3& wo, const Vec3& wi, bool valueOnly = false) const {
         BsdfEval e;
         if (!(wo.z > 0.f) || !(wi.z > 0.f)) return e;
-        Vec3 h = wo + wi;
-        const float l2 = glm::dot(h, h);
-        if (!(l2 > 0.f)) return e;
-        h /= std::sqrt(l2);
-        const float base = microfacetReflection(mf, wo, wi);
-        if (!(base > 0.f)) return e;
+        const MicrofacetReflectionTerms r = microfacetReflectionTerms(mf, wo, wi);
+        if (!(r.value > 0.f)) return e;
         // Fresnel at the average of wo.h and wi.h (equal up to rounding): exactly reciprocal.
-        e.f = specR_ * fresnelConductor(0.5f * (glm::dot(wo, h) + glm::dot(wi, h)), eta_, k_) * base;
+        e.f = specR_ * fresnelConductor(0.5f * (glm::dot(wo, r.h) + glm::dot(wi, r.h)), eta_, k_) * r.value;
         if (valueOnly) return e;
-        e.pdfFwd = SolidAnglePdf(pdfReflect(mf, wo, h));
-        e.pdfRev = SolidAnglePdf(pdfReflect(mf, wi, h));
+        e.pdfFwd = SolidAnglePdf(r.reflectDensity(wo, r.gO));
+        e.pdfRev = SolidAnglePdf(r.reflectDensity(wi, r.gI));
         return e;
-    }
-
-    // Density of sampling the reflection of w about h: D_w(h) / (4 w.h).
-    static float pdfReflect(const Microfacet& mf, const Vec3& w, const Vec3& h) {
-        const float wh = glm::dot(w, h);
-        if (!(wh > 0.f)) return 0.f;
-        return mf.pdfVisible(w, h) / (4.f * wh);
     }
 
     bool rough_;

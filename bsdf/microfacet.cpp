@@ -126,7 +126,10 @@ float Microfacet::G1(const Vec3& w, const Vec3& m) const {
 }
 
 float Microfacet::G2(const Vec3& wo, const Vec3& wi, const Vec3& m) const {
-    const float go = G1(wo, m), gi = G1(wi, m);
+    return G2(wo, wi, G1(wo, m), G1(wi, m));
+}
+
+float Microfacet::G2(const Vec3& wo, const Vec3& wi, float go, float gi) const {
     if (masking_ == MaskingModel::Smith) return go * gi;
     if (wo.z * wi.z > 0.f) return std::min(go, gi);
     return std::max(0.f, go + gi - 1.f);
@@ -203,16 +206,43 @@ Vec3 Microfacet::sampleVisible(const Vec3& w, const Vec2& u, float& uExtra) cons
     return m;
 }
 
-float microfacetReflection(const Microfacet& mf, const Vec3& wo, const Vec3& wi) {
-    if (!(wo.z * wi.z > 0.f)) return 0.f;
+namespace {
+
+// The one body of microfacetReflection and microfacetReflectionTerms (inlined into both: the
+// value alone, for the dielectric, is not to pay for a call returning the terms).
+[[gnu::always_inline]] inline MicrofacetReflectionTerms reflectionTerms(const Microfacet& mf, const Vec3& wo,
+                                                                        const Vec3& wi) {
+    MicrofacetReflectionTerms r;
+    if (!(wo.z * wi.z > 0.f)) return r;
     Vec3 h = wo + wi;
     const float l2 = glm::dot(h, h);
-    if (!(l2 > 0.f)) return 0.f;
+    if (!(l2 > 0.f)) return r;
     h /= std::sqrt(l2);
     if (h.z < 0.f) h = -h;
-    const float d = mf.D(h);
-    if (d == 0.f) return 0.f;
-    return d * mf.G2(wo, wi, h) / (4.f * std::abs(wo.z) * std::abs(wi.z));
+    r.h = h;
+    r.d = mf.D(h);
+    if (r.d == 0.f) return r;
+    r.gO = mf.G1(wo, h);
+    r.gI = mf.G1(wi, h);
+    r.value = r.d * mf.G2(wo, wi, r.gO, r.gI) / (4.f * std::abs(wo.z) * std::abs(wi.z));
+    return r;
+}
+
+}  // namespace
+
+float microfacetReflection(const Microfacet& mf, const Vec3& wo, const Vec3& wi) {
+    return reflectionTerms(mf, wo, wi).value;
+}
+
+MicrofacetReflectionTerms microfacetReflectionTerms(const Microfacet& mf, const Vec3& wo, const Vec3& wi) {
+    return reflectionTerms(mf, wo, wi);
+}
+
+float MicrofacetReflectionTerms::reflectDensity(const Vec3& w, float gW) const {
+    // pdfVisible(w, h) / (4 w.h), with pdfVisible's tests and expression.
+    const float wh = glm::dot(w, h);
+    if (!(wh > 0.f) || !(w.z > 0.f) || !(h.z > 0.f)) return 0.f;
+    return gW * wh * d / w.z / (4.f * wh);
 }
 
 float microfacetTransmission(const Microfacet& mf, const Vec3& wo, const Vec3& wi, float eta, TransportMode mode) {

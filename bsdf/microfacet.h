@@ -46,6 +46,8 @@ public:
     float G1(const Vec3& w, const Vec3& m) const;
     // Masking-shadowing of the pair (model dependent, see above).
     float G2(const Vec3& wo, const Vec3& wi, const Vec3& m) const;
+    // The same from the pair's two G1(w, m) (gO of wo, gI of wi), for a caller that has them.
+    float G2(const Vec3& wo, const Vec3& wi, float gO, float gI) const;
 
     // Density of visible normals D_w(m) (per unit solid angle of m). Requires w.z > 0.
     float pdfVisible(const Vec3& w, const Vec3& m) const;
@@ -108,6 +110,20 @@ inline float scalarRoughness(float alphaU, float alphaV) {
 // Torrance-Sparrow reflection D(h) G2 / (4 |wo.z| |wi.z|), h = normalize(wo + wi), for wo, wi on
 // the same side (any side); 0 otherwise.
 float microfacetReflection(const Microfacet& mf, const Vec3& wo, const Vec3& wi);
+// microfacetReflection with the terms it computes on the way, for a material that also needs the
+// pair's visible-normal densities (ConductorBxdf): h, D(h) and G1(wo, h), G1(wi, h) are what
+// Microfacet::pdfVisible(w, h) is made of, so the value and both densities cost one D and two
+// G1 instead of three and four. value is microfacetReflection's, bit for bit; where it is 0 the
+// terms after the one that made it 0 are not computed.
+struct MicrofacetReflectionTerms {
+    Vec3 h{0.f, 0.f, 1.f};
+    float d = 0.f, gO = 0.f, gI = 0.f;
+    float value = 0.f;
+    // Microfacet::pdfVisible(w, h) / (4 w.h) (0 where w.h <= 0): the density of sampling the
+    // reflection of w about h, for w = wo (gW = gO) or wi (gW = gI), where value > 0.
+    float reflectDensity(const Vec3& w, float gW) const;
+};
+MicrofacetReflectionTerms microfacetReflectionTerms(const Microfacet& mf, const Vec3& wo, const Vec3& wi);
 // Walter et al. 2007 refraction through an interface with relative IOR eta = n_lower / n_upper
 // (lower = z < 0 side): wo and wi on opposite sides, generalised half vector
 // h = normalize(n_wo wo + n_wi wi) facing +z, value

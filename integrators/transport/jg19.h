@@ -146,7 +146,10 @@ public:
     // regularizer.h (7): tau' values found not to be numbers (their techniques refused).
     uint64_t invalidValues() const { return invalid_.count(); }
 
-    // (1) The request at the vertices select() chose, with their bounds.
+    // (1) The request at the vertices select() chose, with their bounds. Value-only: connect and
+    // merge read the regularised evaluation's value (its densities only where the policy samples
+    // the regularised BSDF itself, Technique::pdfLight, pdfCamera: OPSR's path tracer, not JG19),
+    // so its two densities are not computed.
     BsdfContext context(const Technique& tech, End end) const {
         const int j = end == End::Light || tech.photon ? tech.s - 1 : tech.s;  // the end's x index
         const TransportMode mode = end == End::Light ? TransportMode::Importance : TransportMode::Radiance;
@@ -155,6 +158,7 @@ public:
                 BsdfContext c = end == End::Light ? importance_ : radiance_;
                 c.reg.tau = tech.bound[m];
                 if (cone()) c.reg.cone = coneForBound(tech.bound[m]);
+                c.valueOnly = true;
                 return c;
             }
         return BsdfContext(mode);

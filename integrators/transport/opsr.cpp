@@ -410,16 +410,9 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
     // and rho from the walk (SubpathState); the other side's rho_hat is evaluated in the walk's
     // mode and directions, over that rho.
     const int lc = x.lightCount;
-    auto ratio = [&](int j, End side) -> float {
-        if (j < 1 || j > n - 2) return 1.f;  // the endpoints
-        if (!tech.photon && s >= 1) {
-            if (side == End::Light && j == s - 1) return tech.ratioLight;
-            if (side == End::Camera && j == s) return tech.ratioCamera;
-        }
-        const PathVertex& v = x[j];
-        if (!glossy(v)) return 1.f;  // (a smooth one: its delta flag decides)
-        const bool onLightWalk = j < lc - 1, onCameraWalk = j > lc;
-        if ((side == End::Light && onLightWalk) || (side == End::Camera && onCameraWalk)) return v.regState.ratio;
+    // The ratio at a glossy x_j with the other side's roughness, evaluated (a lambda of its own,
+    // so that ratio() below is small enough to be inlined into the loop).
+    auto otherSide = [&](const PathVertex& v, int j, End side, bool onLightWalk, bool onCameraWalk) -> float {
         const float g = requestFrom(tech, j, side);
         if (g < 0.f) return 1.f;
         const SurfaceBsdf b = v.bsdf();
@@ -434,6 +427,21 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
         const Vec3 wo = side == End::Light ? toLight : toCamera, wi = side == End::Light ? toCamera : toLight;
         return detail::regularisedRatio(b.eval(wo, wi, contextFor(mode, g).valueOnlyCopy()).f,
                                         b.eval(wo, wi, BsdfContext(mode).valueOnlyCopy()).f);
+    };
+    // R at x_j with `side`'s roughness. The loop asks twice per technique, mostly at endpoints
+    // and vertices that are not glossy, answered here without a call (measured: -1.8%
+    // instructions, BPT with OPSR on cornell-box-ggx).
+    auto ratio = [&](int j, End side) -> float {
+        if (j < 1 || j > n - 2) return 1.f;  // the endpoints
+        if (!tech.photon && s >= 1) {
+            if (side == End::Light && j == s - 1) return tech.ratioLight;
+            if (side == End::Camera && j == s) return tech.ratioCamera;
+        }
+        const PathVertex& v = x[j];
+        if (!glossy(v)) return 1.f;  // (a smooth one: its delta flag decides)
+        const bool onLightWalk = j < lc - 1, onCameraWalk = j > lc;
+        if ((side == End::Light && onLightWalk) || (side == End::Camera && onCameraWalk)) return v.regState.ratio;
+        return otherSide(v, j, side, onLightWalk, onCameraWalk);
     };
     constexpr float kMaxFactor = 1e30f;  // (two ratios near FLT_MIN would overflow the product)
     P.connectionScale[0] = 1.f;          // the emitter hit: no connection vertex

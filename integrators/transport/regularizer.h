@@ -159,7 +159,9 @@ struct Technique {
     // request; +inf when rho is 0 or a delta). Written by connect and merge before densities().
     float ratioLight = 1.f, ratioCamera = 1.f;
     // The regularised BSDF's own solid-angle density of the connection direction at each end (0
-    // where the request did not change the BSDF), written with the ratios.
+    // where the request did not change the BSDF, or where the policy's context is value-only),
+    // written with the ratios. Read by OPSR's path tracer, which samples the regularised BSDF
+    // itself (opsr.h (4)); JG19's context is value-only (its densities are never read).
     float pdfLight = 0.f, pdfCamera = 0.f;
     // The x indices (path.h: x_0 the light end) of the vertices of this path that the policy
     // regularises (regularizer.h (5); -1: none), written by select(), and the parameter of the
