@@ -105,7 +105,8 @@ public:
             }
             // s = 0 through z[t-1]: a delta light in the cone of a BSDF sample (regularizer.h (8): KD13).
             if constexpr (kConeHits) {
-                if (strategy_ != Strategy::Nee && t <= maxDepth && !v.infinite && reg_.coneHitsAt(v))
+                if ((strategy_ == Strategy::Bsdf || (strategy_ == Strategy::Mis && reg_.coneHitsCompete())) &&
+                    t <= maxDepth && !v.infinite && reg_.coneHitsAt(v))
                     coneHits(scene, z, t, rng, readLimit, L, pixel, stats);
             }
             // s = 0 through z[t-1] with the regulariser's own BSDF sample (regularizer.h (6): OPSR).

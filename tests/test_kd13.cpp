@@ -49,6 +49,18 @@ BsdfContext coneContext(TransportMode mode, float eps) {
     return c;
 }
 
+// scenes/cornell-box-point-in-glass.xml at `res`, its point light (intensity 5) split into `lights`
+// coincident point lights of intensity 5 / lights: the same image, next-event estimation picking
+// each with probability 1 / lights.
+SceneDesc pointInGlass(int res, int lights) {
+    SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml",
+                               {{"res", std::to_string(res)}});
+    REQUIRE(desc.emitters.size() == 1);
+    desc.emitters[0].value = desc.emitters[0].value / float(lights);
+    for (int i = 1; i < lights; ++i) desc.emitters.push_back(desc.emitters[0]);
+    return desc;
+}
+
 reg::Kd13 kd13For(TechniqueSet set, bool merging, double r0 = 0.01, double lambda = -1.0) {
     reg::Kd13Settings k;
     k.r0 = r0;
@@ -292,18 +304,22 @@ TEST_CASE("KD13: one technique per regularised path with weight 1, unregularised
 }
 
 TEST_CASE("KD13 in the path tracer: the cone hit's density is P(lobe), and it and next-event estimation share each path", "[kd13][mis]") {
-    // kd13.h (5). Camera walks in scenes/cornell-box-point-in-glass.xml (the one light a point at
-    // the centre of a smooth glass sphere, int_ior bk7 = 1.5046 in air 1.000277): at every glass vertex z[t-1] where next-event
-    // estimation through the cone carries something, the path's densities must hold the cone
-    // hit's: P(lobe) of the delta lobe on the light's side, computed here from the Fresnel
-    // equations (transmission, 1 - F, from outside the sphere; reflection, F, from inside, where
-    // the light is on wo's side), against next-event estimation's light-selection probability 1;
-    // the two power-heuristic weights must be sel^2 / (sel^2 + P^2) and P^2 / (sel^2 + P^2) and sum
-    // to one (float). A cone of fixed radius 3 (eps ~ 1.5 rad at the light's 0.3) lets most glass
-    // vertices in. Taking the lobe on wo's side, or 1 - P, or no hit density fails it.
-    SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml", {{"res", "16"}});
-    Scene scene(desc);
-    REQUIRE(scene.lights().size() == 1);
+    // kd13.h (5). Camera walks in scenes/cornell-box-point-in-glass.xml (a point light at the
+    // centre of a smooth glass sphere, int_ior bk7 = 1.5046 in air 1.000277), split into two
+    // coincident lights (next-event estimation picks each with sel = 1/2): at every glass vertex
+    // z[t-1] where next-event estimation through the cone carries something, the path's densities
+    // must hold the cone hit's: P(lobe) of the delta lobe on the light's side, computed here from
+    // the Fresnel equations (transmission, 1 - F, from outside the sphere; reflection, F, from
+    // inside, where the light is on wo's side), against next-event estimation's sel; the two
+    // power-heuristic weights must be sel^2 / (sel^2 + P^2) and P^2 / (sel^2 + P^2) and sum to one
+    // (float). With the one light of the scene file the cone hit does not compete (sel = 1: next-
+    // event estimation alone has the lower variance), so next-event estimation's weight is 1. A
+    // cone of fixed radius 3 (eps ~ 1.5 rad at the light's 0.3) lets most glass vertices in.
+    // Taking the lobe on wo's side, or 1 - P, or no hit density fails it.
+    const int lights = GENERATE(1, 2);
+    INFO(lights << " lights");
+    Scene scene(pointInGlass(16, lights));
+    const double sel = 1.0 / lights;
     const MisConfig cfg{TechniqueSet::PathTracer};
     reg::Kd13 kd(reg::Kd13Settings{3.0, 0.0});
     kd.beginIteration(3, scene, cfg);
@@ -329,12 +345,17 @@ TEST_CASE("KD13 in the path tracer: the cone hit's density is P(lobe), and it an
             const double P = sameSide ? F : 1.0 - F;
             (sameSide ? inside : outside) += 1;
             CHECK(c.pdfs.regularised);
-            CHECK(c.pdfs.fromCamera[0] == Approx(P).epsilon(1e-5));
-            CHECK(c.pdfs.fromLight[0] == 1.f);
+            CHECK(c.pdfs.fromLight[0] == Approx(sel).epsilon(1e-6));
             const double wNee = misWeight(c.pdfs, 1, TechniqueSet::PathTracer),
                          wHit = misWeight(c.pdfs, 0, TechniqueSet::PathTracer);
-            CHECK(wNee == Approx(1.0 / (1.0 + P * P)).epsilon(1e-5));
-            CHECK(wHit == Approx(P * P / (1.0 + P * P)).epsilon(1e-5));
+            if (lights == 1) {
+                CHECK(wNee == 1.0);
+                CHECK(wHit == 0.0);
+                continue;
+            }
+            CHECK(c.pdfs.fromCamera[0] == Approx(P).epsilon(1e-5));
+            CHECK(wNee == Approx(sel * sel / (sel * sel + P * P)).epsilon(1e-5));
+            CHECK(wHit == Approx(P * P / (sel * sel + P * P)).epsilon(1e-5));
             CHECK(std::abs(wNee + wHit - 1.0) < 1e-6);
             // The plain sum (no closed form) gives the same.
             CHECK(misWeightGeneral(c.pdfs, 0, cfg) == Approx(wHit).epsilon(1e-6));
@@ -374,44 +395,51 @@ TEST_CASE("KD13 renders a point light seen through glass, with the energy of the
     // deviations each). A missing 1/eta^2 (x 2.26), F in place of 1 - F (x 0.04) or a wrong Omega
     // fails them.
     // PT has two techniques for these paths (kd13.h (5)): next-event estimation through the cone
-    // and the cone hit of a BSDF sample. With --pt-strategy bsdf the cone hits alone must give the
-    // same energy (measured 0.927, 0.909, 0.904, 0.907 at 1024 spp, seeds 3-6, against next-event
-    // estimation with MIS 0.924, 0.909, 0.906, 0.909: the same tolerance). With MIS, the cone
-    // hits' share of the singular image is predicted exactly: L S E (the image s0_t3 of the cone
-    // hit, t = 3 camera-side vertices) carries T = 1 - F(0) = 0.9594 of the singular energy (the
-    // rest leaves after internal reflections), and the cone hit's weight there is
-    // P^2 / (sel^2 + P^2) with P = T (the refraction lobe's probability) and sel = 1 (one light):
-    // 0.4793, so the share is 0.4597 (measured 0.4602, 0.4595, 0.4602, 0.4597: the ratio's noise
-    // is small because both images hold the same few pixels). Tolerance 0.01: balance-heuristic
-    // weights (0.49 x 0.959 = 0.470), the reflection lobe's P (0.04: share 0.0016) or sel 1/2 fail.
+    // and the cone hit of a BSDF sample. With the scene's one light the cone hits do not compete
+    // (no image s0_t3, the cone hit's of L S E); with --pt-strategy bsdf they run alone and must
+    // give the same energy (measured 0.927, 0.909, 0.904, 0.907 at 1024 spp, seeds 3-6, against
+    // next-event estimation 0.924, 0.909, 0.906, 0.909: the same tolerance). With the light split
+    // into two coincident lights of half the intensity (the same image), they compete: the energy
+    // is the same (measured 0.906, 0.909, seeds 5-6), and the cone hits' share of the singular
+    // image is predicted exactly: L S E (s0_t3, t = 3 camera-side vertices) carries
+    // T = 1 - F(0) = 0.9594 of the singular energy (the rest leaves after internal reflections),
+    // and the cone hit's weight there is P^2 / (sel^2 + P^2) with P = T (the refraction lobe's
+    // probability) and sel = 1/2: 0.7864, so the share is 0.7545 (measured 0.7548, 0.7545: the
+    // ratio's noise is small, both images holding the same few pixels). Tolerance 0.01: sel = 1
+    // (0.460), the balance heuristic (0.657 x 0.959 = 0.630), the reflection lobe's P (0.04:
+    // share 0.006) or a hit counting only one of the two lights (half the share) fail.
     const double tanHalf = std::tan(19.5 * std::numbers::pi / 360.0);
     const double direct = 5.0 / (6.8 * 6.8 * 4.0 * tanHalf * tanHalf);
-    SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml", {{"res", "64"}});
-    Scene scene(desc);
+    const Scene scene(pointInGlass(64, 1));
     const std::filesystem::path dir = lt::test::tempDir("lt_kd13", "singular");
     auto singularMean = [&](const std::string& integrator, int spp, double r0, const std::string& strategy = "mis",
-                            const std::string& image = "singular") {
+                            const Scene* on = nullptr, const std::string& tag = "") {
         RenderSettings s = settingsFor(integrator, spp);
         s.maxDepth = 8;
         s.regularizer = "kd13";
         s.regR0 = r0;
         s.regLambda = 0.0;
         s.ptStrategy = strategy;
-        const std::filesystem::path out = dir / (integrator + strategy);
+        const std::filesystem::path out = dir / (integrator + strategy + tag);
         s.strategyImages = out.string();
         RenderStats st;
-        renderImage(scene, s, st);
-        return cropMean(readImage((out / (image + ".exr")).string()), 64, 0, 0, 64, 64);
+        renderImage(on ? *on : scene, s, st);
+        return cropMean(readImage((out / "singular.exr").string()), 64, 0, 0, 64, 64);
     };
     const double pt = singularMean("pt", 1024, 0.03), bpt = singularMean("bpt", 512, 0.65),
                  vcm = singularMean("vcm", 512, 0.65);
-    const double hitShare = cropMean(readImage((dir / "ptmis" / "s0_t3.exr").string()), 64, 0, 0, 64, 64) / pt;
+    const bool hitsWithOneLight = std::filesystem::exists(dir / "ptmis" / "s0_t3.exr");
     const double ptHits = singularMean("pt", 1024, 0.03, "bsdf");
-    INFO("direct " << direct << ": PT " << pt << " (cone hits' share of it " << hitShare << "), PT cone hits alone "
-                   << ptHits << ", BPT " << bpt << ", VCM " << vcm);
+    const Scene two(pointInGlass(64, 2));
+    const double ptTwo = singularMean("pt", 1024, 0.03, "mis", &two, "two");
+    const double hitShare = cropMean(readImage((dir / "ptmistwo" / "s0_t3.exr").string()), 64, 0, 0, 64, 64) / ptTwo;
+    INFO("direct " << direct << ": PT " << pt << ", PT cone hits alone " << ptHits << ", PT with two lights " << ptTwo
+                   << " (cone hits' share of it " << hitShare << "), BPT " << bpt << ", VCM " << vcm);
     CHECK(std::abs(pt / direct - 1.0) < 0.04);
+    CHECK_FALSE(hitsWithOneLight);
     CHECK(std::abs(ptHits / direct - 1.0) < 0.04);
-    CHECK(std::abs(hitShare - 0.4597) < 0.01);
+    CHECK(std::abs(ptTwo / direct - 1.0) < 0.04);
+    CHECK(std::abs(hitShare - 0.7545) < 0.01);
     CHECK(std::abs(bpt / direct - 1.0) < 0.05);
     CHECK(std::abs(vcm / direct - 1.0) < 0.05);
     std::filesystem::remove_all(dir);

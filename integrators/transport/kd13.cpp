@@ -27,6 +27,7 @@ void Kd13::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) 
     deltaLights_.clear();
     for (size_t i = 0; i < scene.lights().size(); ++i)
         if (scene.lights()[i].isDelta()) deltaLights_.push_back(uint32_t(i));
+    coneHitsCompete_ = scene.lights().size() > 1;
 }
 
 double Kd13::lambda(int mollified) const {
@@ -99,7 +100,7 @@ void Kd13::densities(const Technique& tech, PathPdfs& P) const {
     P.regularised = true;
     // (5): in the path tracer the cone hit competes with next-event estimation (the chosen
     // technique there, whose camera end is the mollified vertex).
-    if (set_ == TechniqueSet::PathTracer && tech.s == 1 && boundAt(tech, End::Camera) > 0.f) {
+    if (set_ == TechniqueSet::PathTracer && coneHitsCompete_ && tech.s == 1 && boundAt(tech, End::Camera) > 0.f) {
         const float p = coneHitDensity(tech);
         if (p > 0.f) {
             P.fromCamera[0] = p;

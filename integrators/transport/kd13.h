@@ -56,6 +56,14 @@
 //     next-event estimation's sel: power-heuristic weights sel^2 / (sel^2 + P^2) and
 //     P^2 / (sel^2 + P^2), which sum to one for every light and lobe. With --pt-strategy nee only
 //     next-event estimation runs, with bsdf only the cone hits (weight 1).
+//     With a single light (sel = 1) next-event estimation has no choice to make: given the walk
+//     it evaluates both lobes exactly, and the cone hit, whose only randomness is its lobe, can
+//     only add variance. So the cone hits compete only when the scene has more than one light
+//     (coneHitsCompete; densities() leaves the hit's density out otherwise, and the path tracer
+//     does not draw them), and run alone under --pt-strategy bsdf. (Measured with one light, on
+//     scenes/hard/amber.xml, 64^2, 256 spp, six seeds: relMSE 4.22 against 4.19 for next-event
+//     estimation alone, at 12% more time. With four point lights behind the glass of
+//     specular-point-view, the imaged lights' mean over eight seeds scattered 0.18 against 0.86.)
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -117,6 +125,8 @@ public:
     bool coneHitsAt(const PathVertex& v) const {
         return set_ == TechniqueSet::PathTracer && !deltaLights_.empty() && mollifiable(v);
     }
+    // (5): whether the cone hits compete with next-event estimation in the MIS (more than one light).
+    bool coneHitsCompete() const { return coneHitsCompete_; }
     // The scene's delta lights (indices into Scene::lights()), the only ones a cone hit can count.
     const std::vector<uint32_t>& deltaLights() const { return deltaLights_; }
     // (5): the density of the cone hit on the path of next-event estimation `tech` (s = 1, its
@@ -148,6 +158,7 @@ private:
     TechniqueSet set_ = TechniqueSet::Bidirectional;
     bool merging_ = false;
     std::vector<uint32_t> deltaLights_;
+    bool coneHitsCompete_ = false;
 };
 
 }  // namespace lt::reg

@@ -84,7 +84,8 @@
 //        tracer draws a BSDF sample of v's own (delta) BSDF on a stream split from the walk's, and
 //        counts each delta light whose direction lies in the cone of the sampled lobe: the
 //        emitter-hit technique of the mollified path, evaluated through connect (the cone, the
-//        shadow ray, the densities) and weighted by MIS against next-event estimation there.
+//        shadow ray, the densities) and weighted by MIS against next-event estimation there
+//        where coneHitsCompete() (more than one light), alone under BSDF sampling only.
 //        A policy without the member has no such hits (None, JG19, OPSR).
 #pragma once
 #include <atomic>
