@@ -117,7 +117,15 @@ int main(int argc, char** argv) {
                    "OPSR's reference attenuation file: with the opsr column, PT, BPT and VCM also run with its 'low' set "
                    "(column opsrlow). Default auto: ../shared/data/opsr/opsr-reference-attenuation.json beside the root, "
                    "where it exists; 'none': no such column");
-    app.add_option("--time", seconds, "Render time per scene and integrator in seconds (default 3)")->check(lt::cli::positive());
+    CLI::Option* timeOpt = app.add_option("--time", seconds, "Render time per scene and integrator in seconds (default 3)")
+                               ->check(lt::cli::positive());
+    int fixedSpp = 0;
+    app.add_option("--spp", fixedSpp,
+                   "Render every configuration with this many samples per pixel instead of for --time seconds "
+                   "(equal spp: each column but time and samples/s is then the same in every run with the same "
+                   "references, for the fixed seed)")
+        ->check(lt::cli::positive())
+        ->excludes(timeOpt);
     app.add_option("--res", res, "Image width and height, through -D res=N (default 64)")->check(lt::cli::range(8, 4096));
     app.add_option("--ref-time", refTime, "Render time of each reference in seconds (default 20)")->check(lt::cli::positive());
     app.add_option("--ref-config", refConfig, "Configuration of the references (default auto: vcm, else bpt, else pt)");
@@ -267,8 +275,8 @@ int main(int argc, char** argv) {
             const std::string& integ = cfg.label;
             try {
                 RenderSettings s = makeSettings(desc, cfg, threads, 1);
-                s.spp = 0;
-                s.timeLimit = seconds;
+                s.spp = fixedSpp;  // (0: until the time limit)
+                s.timeLimit = fixedSpp > 0 ? 0.0 : seconds;
                 RenderStats st;
                 Image img = renderImage(scene, s, st);
                 ErrorMetrics m = computeMetrics(img, refImg);
@@ -299,11 +307,15 @@ int main(int argc, char** argv) {
     // Each regulariser against no regulariser, same integrator, same time: ratios below 1 are the
     // regulariser's gain (its bias included: the reference is unregularised).
     if (!regularizers.empty()) {
-        body += "\n## Regularisation at equal time\n\nError with the regulariser over the same integrator's without it, "
-                "same time and reference (below 1: the regulariser wins; its bias is part of its error). relMSE ratio / "
-                "RMS-RE ratio, and where a scene has singular pixels (above) [the relMSE ratio outside them]. Each "
-                "figure is one timed run: where the machine is shared, the spp of a configuration varies between runs "
-                "(see the tables), and so does its relMSE, about in inverse proportion. jg19cone: JG19 with its smooth "
+        body += fmt::format("\n## Regularisation at equal {}\n\nError with the regulariser over the same integrator's "
+                            "without it, same {} and reference (below 1: the regulariser wins; its bias is part of its "
+                            "error). relMSE ratio / RMS-RE ratio, and where a scene has singular pixels (above) [the "
+                            "relMSE ratio outside them]. ",
+                            fixedSpp > 0 ? "spp" : "time", fixedSpp > 0 ? "spp" : "time");
+        if (fixedSpp == 0)
+            body += "Each figure is one timed run: where the machine is shared, the spp of a configuration varies between "
+                    "runs (see the tables), and so does its relMSE, about in inverse proportion. ";
+        body += "jg19cone: JG19 with its smooth "
                 "lobes as KD13's cones (`--reg jg19 --reg-specular cone`). opsr: OPSR with its constant gamma 0.01; opsrlow: "
                 "OPSR with the 'low' set of the authors' reference attenuation file (where it is found).\n\n| scene |";
         std::string rule = "|---|";
@@ -334,7 +346,10 @@ int main(int argc, char** argv) {
     }
     double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::string head = "# Benchmarks\n\nWritten by `bench` (tools/bench.cpp; `bash scripts/bench.sh`). Every integrator renders "
-                       "each scene for the same wall-clock time (excluding scene loading), all at " +
+                       "each scene " +
+                       (fixedSpp > 0 ? fmt::format("with the same number of samples per pixel ({}; --spp)", fixedSpp)
+                                     : std::string("for the same wall-clock time (excluding scene loading)")) +
+                       ", all at " +
                        fmt::format("{}x{} pixels, seed 1; errors are against the reference named under each scene. ", res, res) +
                        "relMSE = mean (a-b)^2/(b^2+0.01), RMS-RE = the RMS of relative residuals of Jendersie & Grosch "
                        "2019, MAPE = mean |a-b|/(|b|+0.01), top-1% share = the share of the relMSE carried by the worst 1% "
