@@ -38,9 +38,10 @@
 // (4) Where: connections only (the walks, emitter hits and merges are untouched); connect() may
 //     end at a smooth vertex (connectible), and select() lets it contribute only as the chosen
 //     estimator. MIS: the chosen technique's density is its sampling density; the others have
-//     factor 0 (densities()), but for the path tracer's cone hit (5). Paths that some technique samples keep their unbiased weights exactly
-//     (select() returns "unregularised" and the routine runs as without a regulariser), so a scene
-//     where every path is samplable renders bit-identically to --reg none.
+//     factor 0 (densities()), but for the path tracer's cone hit (5). Paths that some technique
+//     samples keep their unbiased weights exactly (select() returns "unregularised" and the
+//     routine runs as without a regulariser), so a scene where every path is samplable renders
+//     bit-identically to --reg none.
 // (5) The path tracer's second technique for a mollified path (regularizer.h (8)). In the path
 //     tracer every path (2) mollifies is a delta light reached through a smooth camera vertex
 //     z[t-1], and the one candidate is next-event estimation there. The cone lets a BSDF-sampled
