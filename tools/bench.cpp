@@ -307,11 +307,11 @@ int main(int argc, char** argv) {
     // Each regulariser against no regulariser, same integrator, same time: ratios below 1 are the
     // regulariser's gain (its bias included: the reference is unregularised).
     if (!regularizers.empty()) {
-        body += fmt::format("\n## Regularisation at equal {}\n\nError with the regulariser over the same integrator's "
-                            "without it, same {} and reference (below 1: the regulariser wins; its bias is part of its "
+        body += fmt::format("\n## Regularisation at equal {0}\n\nError with the regulariser over the same integrator's "
+                            "without it, same {0} and reference (below 1: the regulariser wins; its bias is part of its "
                             "error). relMSE ratio / RMS-RE ratio, and where a scene has singular pixels (above) [the "
                             "relMSE ratio outside them]. ",
-                            fixedSpp > 0 ? "spp" : "time", fixedSpp > 0 ? "spp" : "time");
+                            fixedSpp > 0 ? "spp" : "time");
         if (fixedSpp == 0)
             body += "Each figure is one timed run: where the machine is shared, the spp of a configuration varies between "
                     "runs (see the tables), and so does its relMSE, about in inverse proportion. ";

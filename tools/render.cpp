@@ -148,8 +148,9 @@ int main(int argc, char** argv) {
     double regTau = -1.0;
     app.add_option("--reg", regularizer,
                    "Path-space regulariser: none (default), jg19 (microfacet roughness bound), kd13 (cone mollifier "
-                   "of smooth vertices on paths no technique of the integrator samples; in pt next-event estimation and, "
-                   "with several lights, a BSDF-sampled ray counting a point light within the cone, weighted by MIS), opsr (accumulated roughness "
+                   "of smooth vertices on paths no technique of the integrator samples; in pt next-event estimation "
+                   "and, with several lights, a BSDF-sampled ray counting a point light within the cone, weighted by "
+                   "MIS), opsr (accumulated roughness "
                    "at connection vertices, Weier et al. 2021: the path tracer's next-event estimation as the paper; "
                    "in bpt/vcm/lt each connection end with its own subpath's roughness, our extension, smooth "
                    "vertices only on paths no technique samples; not ppm), jg19,opsr (OPSR with JG19's bound: "
