@@ -163,16 +163,20 @@ public:
             }
         return BsdfContext(mode);
     }
-    // (2), (5). The commonest answer inline: a connection whose ends' changeable counts are 0, or
-    // whose own or running-minimum term is under tau^2 (connectionUnder), is unregularised;
-    // everything else (emitter hits, merges, ends at infinity, the loop) is the out-of-line form.
+    // (2), (5). The commonest answer inline: a connection or merge whose subpaths' changeable
+    // counts are 0, or whose joining segment's or running-minimum term is under tau^2
+    // (connectionUnder; a merge's joining segment is the photon's, y[s-2] - z[t-1], the one of the
+    // connection technique with the same vertices), is unregularised; everything else (emitter
+    // hits, ends at infinity, the loop) is the out-of-line form.
     bool select(Technique& tech) const {
-        if (settings_.quality && !tech.photon && tech.s >= 1 && tech.t >= 1) {
-            const PathVertex &a = tech.y[tech.s - 1], &b = tech.z[tech.t - 1];
+        const int lightCount = tech.photon ? tech.s - 1 : tech.s;  // (a merge's x_i is z[t-1])
+        if (settings_.quality && lightCount >= 1 && tech.t >= 1 && tech.y) {
+            const PathVertex &a = tech.y[lightCount - 1], &b = tech.z[tech.t - 1];
             const bool nothingChangeable = a.regState.changeable + b.regState.changeable == 0.f;
-            if (nothingChangeable || (allowsTechnique(set_, tech.s, tech.t) && connectionUnder(a, b))) {
+            if (nothingChangeable || (allowsTechnique(set_, lightCount, tech.t) && connectionUnder(a, b))) {
                 tech.regularised[0] = tech.regularised[1] = -1;
-                return nothingChangeable || (a.connectible() && b.connectible());  // Eq. 18's answer
+                // Eq. 18's answer: no end (a merge's: x_i) may stay a delta.
+                return nothingChangeable || ((tech.photon || a.connectible()) && b.connectible());
             }
         }
         return select(tech, true);
