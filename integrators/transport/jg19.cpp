@@ -190,11 +190,11 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut) const {
     if (path.lightCount >= 1) dPath += double(tech.y[path.lightCount - 1].pathLength);
     const double tau = double(radiance_.reg.tau);
     // The connection term of Eq. 17 (q's quantity) for bounds ra, rb over segment length dj.
-    auto connectionTerm = [&](double ra, double rb, double dj) {
-        if (ra == 0.0 || rb == 0.0) return 0.0;
-        const double t = ra * rb;
-        return std::isfinite(dj) && dj > 0.0 && dPath > 0.0 ? t * sqr(dPath / dj) : t;
-    };
+    // (distanceFactor: (d_path / d_j)^2, 1 where it cannot be formed; the term then compares
+    // the bounds unscaled)
+    auto distanceFactor = [&](double dj) { return std::isfinite(dj) && dj > 0.0 && dPath > 0.0 ? sqr(dPath / dj) : 1.0; };
+    auto scaledTerm = [](double ra, double rb, double factor) { return ra == 0.0 || rb == 0.0 ? 0.0 : ra * rb * factor; };
+    auto connectionTerm = [&](double ra, double rb, double dj) { return scaledTerm(ra, rb, distanceFactor(dj)); };
 
     // d_j from the records (the joining segment measured above).
     auto segmentAt = [&](int j) -> double {
@@ -283,9 +283,9 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut) const {
     };
     for (int k = 1; k < n; ++k) {  // connection technique k: x_{k-1} - x_k
         if (!allowsTechnique(set_, k, n - k)) continue;
-        const double dk = seg[k - 1];
-        consider(connectionTerm(bound(k - 1, false), bound(k, false), dk),
-                 connectionTerm(bound(k - 1, true), bound(k, true), dk), dk, k - 1, k);
+        const double dk = seg[k - 1], factor = distanceFactor(dk);
+        consider(scaledTerm(bound(k - 1, false), bound(k, false), factor),
+                 scaledTerm(bound(k - 1, true), bound(k, true), factor), dk, k - 1, k);
     }
     // The emitter hit (ours; Eq. 17 has connections only): its one random choice is the direction
     // sampled at x_k, the first vertex from the light that is not a delta; it hits with probability
