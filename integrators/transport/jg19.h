@@ -178,6 +178,10 @@ public:
                 // Eq. 18's answer: no end (a merge's: x_i) may stay a delta.
                 return nothingChangeable || ((tech.photon || a.connectible()) && b.connectible());
             }
+            // The out-of-line form's own O(1) exit adds only the emitter hit's term to these, and
+            // its answer is the loop's: measured, it never exits here (connections and merges of
+            // PT, BPT and VCM on point-in-glass, 48^2 and 256^2). Straight to the loop.
+            return select(tech, false);
         }
         return select(tech, true);
     }
