@@ -241,38 +241,39 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut) const {
         if (known < tau * tau * (1.0 - kExitMargin)) return unregularised();
     }
 
-    // The path's vertices, segment lengths d_j and bounds, gathered once (the loops below read
-    // each several times).
+    // The path's vertices x_j, segment lengths d_j (x_j - x_{j+1}) and bounds, gathered once (the
+    // loops below read each several times), in one pass from the camera end. With the diffusion
+    // heuristic, the bound tau' of the request at each vertex is tau / sigma_j along the view
+    // sub-path (4), and the regularised bounds are under it: the camera subpath's spreads from its
+    // walk, then across the connection and down the light subpath.
     std::array<const PathVertex*, kMaxPathVertices> xs;
     std::array<double, kMaxPathVertices> seg, plainB, regB;
     std::array<float, kMaxPathVertices> taus;  // tau' at each vertex (diffusion)
-    for (int j = 0; j < n; ++j) xs[j] = &path.vertex(j);
-    for (int j = 0; j + 1 < n; ++j) seg[j] = segmentAt(j);
-    for (int j = 0; j < n; ++j) {
+    const int firstCamera = path.lightCount;  // x index of z[t-1] (a merge's too)
+    for (int j = 0; j < firstCamera; ++j) xs[j] = &tech.y[j];
+    for (int j = firstCamera; j < n; ++j) xs[j] = &tech.z[n - 1 - j];
+    const bool diffuse = diffusion();
+    Diffusion d;
+    for (int j = n - 1; j >= 0; --j) {
+        const PathVertex& v = *xs[j];
+        // (a segment's length is on the record of the vertex it arrived at: x_{j+1} on the light
+        // subpath, x_j on the camera subpath)
+        if (j + 1 < n) seg[j] = j == join ? joinLength : double(j < join ? xs[j + 1]->segmentLength : v.segmentLength);
         if (j == 0 && tech.s == 0) {
-            plainB[j] = regB[j] = lightBound(*xs[j]->light);  // the emitter a camera walk hit
+            plainB[j] = regB[j] = lightBound(*v.light);  // the emitter a camera walk hit
         } else {
-            plainB[j] = xs[j]->regState.rhoBar;
-            regB[j] = xs[j]->regState.rhoBarReg;
+            plainB[j] = v.regState.rhoBar;
+            regB[j] = v.regState.rhoBarReg;
         }
-    }
-    // With the diffusion heuristic, the bound tau' of the request at each vertex is tau / sigma_j
-    // along the view sub-path (4), and the regularised bounds are under it: the camera subpath's
-    // spreads from its walk, then across the connection and down the light subpath.
-    if (diffusion()) {
-        const int firstCamera = path.lightCount;  // x index of z[t-1] (a merge's too)
-        Diffusion d;
-        for (int j = n - 1; j >= 0; --j) {
-            const PathVertex& v = *xs[j];
-            if (j >= firstCamera) d = Diffusion{v.regState.spread, v.regState.footprint};
-            else d = d.next(plainB[j + 1], double(xs[j + 1]->curvature), seg[j]);
-            taus[j] = boundAt(d.spread);
-            if (std::isnan(taus[j])) {  // regularizer.h (7): refused and counted, not read as "no request"
-                invalid_.add();
-                return false;
-            }
-            regB[j] = path.inner(j) && double(taus[j]) < double(v.regState.rhoBarReg) ? double(taus[j]) : plainB[j];
+        if (!diffuse) continue;
+        if (j >= firstCamera) d = Diffusion{v.regState.spread, v.regState.footprint};
+        else d = d.next(plainB[j + 1], double(xs[j + 1]->curvature), seg[j]);
+        taus[j] = boundAt(d.spread);
+        if (std::isnan(taus[j])) {  // regularizer.h (7): refused and counted, not read as "no request"
+            invalid_.add();
+            return false;
         }
+        regB[j] = path.inner(j) && double(taus[j]) < double(v.regState.rhoBarReg) ? double(taus[j]) : plainB[j];
     }
     auto bound = [&](int j, bool reg) -> double { return reg ? regB[j] : plainB[j]; };
     double q = kInf, best = kInf, bestLength = -1.0;
