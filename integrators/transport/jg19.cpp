@@ -139,13 +139,13 @@ bool containsRegularised(const Technique& tech, int a, int b) {
 
 }  // namespace
 
-bool Jg19::select(Technique& tech, bool shortcut) const {
+bool Jg19::select(Technique& tech, bool shortcut, bool fast) const {
     // regularizer.h (7): a bound that is not a number (or not positive) is refused and counted,
     // never read as "no request".
-    return selectBounds(tech, shortcut) && boundsValid(tech, [](float b) { return b > 0.f; }, invalid_);
+    return selectBounds(tech, shortcut, fast) && boundsValid(tech, [](float b) { return b > 0.f; }, invalid_);
 }
 
-bool Jg19::selectBounds(Technique& tech, bool shortcut) const {
+bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
     tech.regularised[0] = tech.regularised[1] = -1;
     const PathView path(tech, pathVertexCount(tech));
     if (!settings_.quality) {  // (3): every technique at its own ends
@@ -239,6 +239,67 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut) const {
             if (std::isfinite(rho1)) known = std::min(known, emitterHitTerm(path.vertex(0), path.vertex(1), rho1, segmentAt(0)));
         }
         if (known < tau * tau * (1.0 - kExitMargin)) return unregularised();
+    }
+
+    // The path tracer's two techniques, next-event estimation (the connection x_0 - x_1) and the
+    // emitter hit, leave only x_1 to regularise: what the loops below find, in O(1) but for the
+    // emitter hit's unfolding through delta vertices and the checks of (7) on the view sub-path's
+    // spreads (tested against the loops: selectByLoop). For the path tracer's own techniques
+    // (s <= 1: x_1 is a camera vertex, its spread on the walk's record).
+    if (fast && set_ == TechniqueSet::PathTracer && !merging_ && !tech.photon && tech.s <= 1 && n >= 2) {
+        const bool diffuse = diffusion();
+        if (diffuse)  // (7): the loop's tau' at every camera vertex is a number iff its spread is
+            for (int i = 0; i < tech.t; ++i)
+                if (std::isnan(tech.z[i].regState.spread)) {
+                    invalid_.add();
+                    return false;
+                }
+        auto plainAt = [&](int j) -> double {
+            return j == 0 && tech.s == 0 ? double(lightBound(*path.vertex(0).light)) : double(path.vertex(j).regState.rhoBar);
+        };
+        const PathVertex &x0 = path.vertex(0), &x1 = path.vertex(1);
+        const double p0 = plainAt(0), p1 = plainAt(1), d0 = segmentAt(0);
+        double r0 = p0, r1 = p1;
+        float tau1 = radiance_.reg.tau;
+        if (diffuse) {
+            if (tech.s == 1) {  // (7) at x_0, the light side: its spread across the connection
+                const Diffusion d = Diffusion{x1.regState.spread, x1.regState.footprint}.next(p1, double(x1.curvature), d0);
+                if (std::isnan(boundAt(d.spread))) {
+                    invalid_.add();
+                    return false;
+                }
+            }
+            tau1 = boundAt(x1.regState.spread);
+            if (path.inner(1) && double(tau1) < double(x1.regState.rhoBarReg)) r1 = double(tau1);
+        } else {
+            if (tech.s != 0) r0 = x0.regState.rhoBarReg;
+            r1 = x1.regState.rhoBarReg;
+        }
+        double q = kInf, best = kInf, bestLength = -1.0;
+        int bestA = -1;  // (the loop's consider, with x_0's index for the connection x_0 - x_1)
+        auto consider = [&](double plain, double reg, double length, int a) {
+            q = std::min(q, plain);
+            if (reg < best || (reg == best && length > bestLength)) best = reg, bestLength = length, bestA = a;
+        };
+        if (allowsTechnique(set_, 1, n - 1)) {  // next-event estimation
+            const double factor = distanceFactor(d0);
+            consider(scaledTerm(p0, p1, factor), scaledTerm(r0, r1, factor), d0, 0);
+        }
+        if (allowsTechnique(set_, 0, n)) {  // the emitter hit, as below
+            double D = d0;
+            int k = 1;
+            if (std::isfinite(D) && D > 0.0)
+                while (k < n - 1 && std::isinf(plainAt(k)) && std::isfinite(segmentAt(k))) D += segmentAt(k++);
+            const double term = emitterHitTerm(x0, x1, plainAt(k), D);
+            consider(term, term, -1.0, -1);
+        }
+        if (q < tau * tau || !(best < q)) return unregularised();
+        if (bestA == 0) {
+            int m = 0;
+            if (r0 < p0) tech.bound[m] = radiance_.reg.tau, tech.regularised[m++] = 0;  // (without diffusion only)
+            if (r1 < p1) tech.bound[m] = diffuse ? tau1 : radiance_.reg.tau, tech.regularised[m++] = 1;
+        }
+        return containsRegularised(tech, path.lightEnd, path.cameraEnd);
     }
 
     // The path's vertices x_j, segment lengths d_j (x_j - x_{j+1}) and bounds, gathered once (the

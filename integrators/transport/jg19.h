@@ -181,13 +181,14 @@ public:
             // The out-of-line form's own O(1) exit adds only the emitter hit's term to these, and
             // its answer is the loop's: measured, it never exits here (connections and merges of
             // PT, BPT and VCM on point-in-glass, 48^2 and 256^2). Straight to the loop.
-            return select(tech, false);
+            return select(tech, false, true);
         }
-        return select(tech, true);
+        return select(tech, true, true);
     }
-    // select() without its O(1) exit (q < tau^2 from the subpaths' running minima): the plain
-    // form over the whole path, which select() must agree with (tests).
-    bool selectByLoop(Technique& tech) const { return select(tech, false); }
+    // select() without its O(1) exit (q < tau^2 from the subpaths' running minima) and without
+    // the path tracer's O(1) form: the plain form over the whole path, which select() must agree
+    // with (tests).
+    bool selectByLoop(Technique& tech) const { return select(tech, false, false); }
     // (2), (3)
     static constexpr bool kPerTechnique = true;
     bool perTechnique(const Technique& tech) const;
@@ -276,8 +277,9 @@ private:
     }
     bool diffusion() const { return settings_.quality && settings_.diffusion; }
     bool cone() const { return settings_.specular == SpecularMode::Cone; }
-    bool select(Technique& tech, bool shortcut) const;
-    bool selectBounds(Technique& tech, bool shortcut) const;  // select() before the check (7)
+    // shortcut: the O(1) exit; fast: the path tracer's O(1) form of the loop (selectPathTracer).
+    bool select(Technique& tech, bool shortcut, bool fast) const;
+    bool selectBounds(Technique& tech, bool shortcut, bool fast) const;  // select() before the check (7)
     // The O(1) exit of select() for a connection a - b (a = y[s-1], b = z[t-1], both finite; a
     // technique of the running integrator, so its own segment's term is one of Eq. 17's), in
     // float: the joining segment's term rho_bar_a rho_bar_b (d_path / d)^2, or (BPT, VCM) d_path^2
