@@ -4,6 +4,8 @@
 #   bash scripts/setup.sh render   -> out/cornell-box.exr and out/cornell-box.png
 #   bash scripts/setup.sh test     -> the whole ctest suite
 #   bash scripts/setup.sh build    -> only install and build
+#   bash scripts/setup.sh cost     -> also valgrind: what a regularised sample costs
+#                                     (scripts/cost.sh, docs/regularisation-cost.md)
 #   bash scripts/setup.sh fuzz [SECONDS]
 #                                  -> also clang and its fuzzer runtime: fuzzes the loaders
 #                                     (scripts/fuzz.sh, tests/fuzz/README.md; 30 min each by default)
@@ -15,6 +17,7 @@ PACKAGES=(build-essential cmake ninja-build pkg-config
   libembree-dev libopenexr-dev libglm-dev libtbb-dev catch2 libcli11-dev libpugixml-dev
   libtinyobjloader-dev libstb-dev nlohmann-json3-dev libfmt-dev zlib1g-dev gnuplot-nox)
 [ "$action" = fuzz ] && PACKAGES+=(clang libclang-rt-14-dev python3)
+[ "$action" = cost ] && PACKAGES+=(valgrind)
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -40,8 +43,11 @@ case "$action" in
     ctest --test-dir build -j "$jobs" --output-on-failure --timeout 600
     ;;
   build) ;;
+  cost)
+    scripts/cost.sh
+    ;;
   fuzz)
     scripts/fuzz.sh "${2:-1800}"
     ;;
-  *) echo "usage: scripts/setup.sh [render|test|build|fuzz [SECONDS]]" >&2; exit 1 ;;
+  *) echo "usage: scripts/setup.sh [render|test|build|cost|fuzz [SECONDS]]" >&2; exit 1 ;;
 esac

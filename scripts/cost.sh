@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# What a regularised sample costs: the instructions (callgrind) of PT, BPT and VCM with each
+# regulariser over those of the same integrator without one, per scene, at the same spp. An
+# instruction count does not depend on the shared machine's load, so one run per configuration
+# is enough; docs/regularisation-cost.md says how it relates to wall time.
+#   bash scripts/cost.sh [OUT]      (default out/cost; needs valgrind: bash scripts/setup.sh cost)
+# Writes OUT/totals.csv (scene, integrator, configuration, instructions) and OUT/cost.md (the
+# ratios). Configurations: none; jg19 with --reg-tau 1e30 (the heuristics' bookkeeping on every
+# path, nothing regularised: images identical to none); jg19, opsr and kd13 with their defaults.
+# 13 scenes x 3 integrators x 5 configurations at 48x48, 8 spp, 1 thread each: about 5 minutes on
+# 2 cores.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out="${1:-out/cost}"
+command -v valgrind >/dev/null || { echo "cost.sh: valgrind not found (bash scripts/setup.sh cost installs it)" >&2; exit 1; }
+[ -x build/tools/render ] || { echo "cost.sh: build/tools/render not found (bash scripts/setup.sh build)" >&2; exit 1; }
+mkdir -p "$out/runs"
+
+scenes=(cornell-box cornell-box-ggx cornell-box-glass-sphere cornell-box-mirror-sphere cornell-box-point-in-glass
+  hard/amber hard/caustic-mirror hard/caustic-point-glass hard/caustic-roughness hard/glass-ball-body
+  hard/glossy-chains hard/glossy-ring hard/specular-point-view)
+configs=(none jg19-nothing jg19 opsr kd13)
+options() {
+  case "$1" in
+    jg19-nothing) echo "--reg jg19 --reg-tau 1e30" ;;
+    *) echo "--reg $1" ;;
+  esac
+}
+
+for sc in "${scenes[@]}"; do
+  for i in pt bpt vcm; do
+    for c in "${configs[@]}"; do
+      name="$(echo "$sc" | tr / _)-$i-$c"
+      echo "valgrind --tool=callgrind --callgrind-out-file=$out/runs/$name.cg build/tools/render scenes/$sc.xml -D res=48 --spp 8 --threads 1 --seed 1 --integrator $i $(options "$c") -q -o $out/runs/$name.exr"
+    done
+  done
+done | xargs -P "$(nproc)" -I{} sh -c '{} >/dev/null 2>&1 || { echo "cost.sh: failed: {}" >&2; exit 255; }'
+
+echo "scene,integrator,configuration,instructions" > "$out/totals.csv"
+for sc in "${scenes[@]}"; do
+  for i in pt bpt vcm; do
+    for c in "${configs[@]}"; do
+      name="$(echo "$sc" | tr / _)-$i-$c"
+      n=$(awk '/^summary:/ {print $2; exit}' "$out/runs/$name.cg")
+      echo "$sc,$i,$c,$n" >> "$out/totals.csv"
+    done
+  done
+done
+rm -f "$out"/runs/*.cg "$out"/runs/*.exr "$out"/runs/*.png
+
+awk -F, -v configs="${configs[*]}" '
+  NR == 1 { next }
+  { n[$1 "," $2 "," $3] = $4; if (!($1 in seen)) { seen[$1] = 1; order[++ns] = $1 } }
+  END {
+    nc = split(configs, c, " ")
+    printf "Instructions over the same integrator without a regulariser (48x48, 8 spp, 1 thread, seed 1).\n\n"
+    printf "| scene |"
+    split("PT BPT VCM", label, " ")
+    for (ii = 1; ii <= 3; ++ii) for (k = 2; k <= nc; ++k) printf " %s %s |", label[ii], c[k]
+    printf "\n|---|"
+    for (k = 1; k <= 3 * (nc - 1); ++k) printf "---:|"
+    printf "\n"
+    split("pt bpt vcm", integ, " ")
+    for (s = 1; s <= ns; ++s) {
+      printf "| %s |", order[s]
+      for (ii = 1; ii <= 3; ++ii) {
+        base = n[order[s] "," integ[ii] ",none"]
+        for (k = 2; k <= nc; ++k) printf " %.2f |", n[order[s] "," integ[ii] "," c[k]] / base
+      }
+      printf "\n"
+    }
+  }' "$out/totals.csv" > "$out/cost.md"
+cat "$out/cost.md"
