@@ -300,6 +300,27 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         lights_[li].invArea = lights_[li].area > 0.f ? 1.f / lights_[li].area : 0.f;
         sphereLight_[i] = li;
     }
+    // Bounding spheres of the emitting shapes (mayHitEmitter): a mesh's from its emitting
+    // triangles' corners (the centre of their box, the largest distance to a corner), a sphere's
+    // its own; each radius enlarged by 1e-3 of itself and 1e-5 of the scene's extent, far above
+    // float rounding in the test.
+    for (size_t i = 0; i < desc_.meshes.size(); ++i) {
+        if (meshLight_[i] < 0) continue;
+        const MeshDesc& m = desc_.meshes[i];
+        Vec3 lo(kInf), hi(-kInf);
+        for (uint32_t k : m.indices) lo = glm::min(lo, m.positions[k]), hi = glm::max(hi, m.positions[k]);
+        const Vec3 c = 0.5f * (lo + hi);
+        float r = 0.f;
+        for (uint32_t k : m.indices) r = std::max(r, glm::length(m.positions[k] - c));
+        emitterBounds_.push_back({c, r});
+    }
+    for (size_t i = 0; i < desc_.spheres.size(); ++i)
+        if (sphereLight_[i] >= 0) emitterBounds_.push_back({desc_.spheres[i].center, desc_.spheres[i].radius});
+    float extent = 0.f;
+    for (const EmitterBound& b : emitterBounds_) extent = std::max(extent, glm::length(b.center) + b.radius);
+    for (EmitterBound& b : emitterBounds_) b.radius = b.radius * (1.f + 1e-3f) + 1e-5f * extent;
+    manyEmitters_ = emitterBounds_.size() > kMaxEmitterBounds;
+    if (manyEmitters_) emitterBounds_.clear();
     // Drop area emitters not attached to any shape (the loader should not produce them).
     std::vector<float> power;
     for (const Light& l : lights_) power.push_back(l.type == LightType::Area && l.area <= 0.f ? 0.f : l.power(*this));
@@ -453,6 +474,20 @@ bool Scene::occludedRay(const Ray& r) const {
     fillRay(rr, r);
     rtcOccluded1(scene_, &ctx, &rr);
     return rr.tfar < 0.f;
+}
+
+bool Scene::mayHitEmitter(const Ray& ray) const {
+    if (manyEmitters_) return true;
+    const float dd = glm::dot(ray.d, ray.d);
+    for (const EmitterBound& b : emitterBounds_) {
+        const Vec3 oc = b.center - ray.o;
+        const float r2 = b.radius * b.radius;
+        if (glm::dot(oc, oc) <= r2) return true;     // the origin inside
+        if (glm::dot(oc, ray.d) < 0.f) continue;     // the sphere behind the origin
+        const Vec3 x = glm::cross(oc, ray.d);        // |oc x d|^2 / |d|^2: the squared distance
+        if (glm::dot(x, x) <= r2 * dd) return true;  // of the centre from the ray's line
+    }
+    return false;
 }
 
 }  // namespace lt

@@ -80,6 +80,13 @@ public:
         return _mm_add_ps(p, _mm_mul_ps(_mm_set1_ps(positiveSide ? eps : -eps), ng));
     }
 
+    // False only if no ray hit along `ray` (t >= 0) can be on an emitting shape: a conservative
+    // test against a bounding sphere of each area light's shape (always true with more than
+    // kMaxEmitterBounds of them). A path tracer's extra ray that counts only emitter hits (OPSR's
+    // regularised BSDF sample) is cast only where it is true.
+    bool mayHitEmitter(const Ray& ray) const;
+    static constexpr size_t kMaxEmitterBounds = 16;
+
     const Camera& camera() const { return *camera_; }
     const std::vector<Light>& lights() const { return lights_; }
     const Distribution1D& lightDistribution() const { return lightDist_; }
@@ -145,6 +152,11 @@ private:
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
     // Emitting meshes: their triangles (all, in mesh order) and the choice between them (per mesh).
     std::vector<EmitterTriangle> emitterTris_;
+    // Bounding spheres of the emitting shapes, radii slightly enlarged (mayHitEmitter); empty with
+    // more than kMaxEmitterBounds shapes (then every ray may hit one).
+    struct EmitterBound { Vec3 center; float radius; };
+    std::vector<EmitterBound> emitterBounds_;
+    bool manyEmitters_ = false;
     std::vector<Distribution1D> meshTriDist_;
     Vec3 center_{0.f};
     float radius_ = 1.f, geometryRadius_ = 1.f;

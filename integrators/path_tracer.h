@@ -135,6 +135,9 @@ private:
         // The hit goes into a vertex of its own; only a light's is copied into z[t] (the rare case).
         PathVertex e;
         const Ray ray = scene.spawnRay(v.p, v.ng, bs.wi);
+        // Only a light it hits counts: with none it can hit (and none at infinity), the ray would
+        // find nothing to write.
+        if (scene.infiniteLights().empty() && !scene.mayHitEmitter(ray)) return;
         ++stats.rays;
         if (stats.log) stats.log->addClosest(ray, v.depth);
         if (scene.intersect(ray, e)) {
