@@ -83,12 +83,23 @@ struct BsdfContext {
     // eval() may leave the densities 0: the caller reads the value only (a regulariser's ratio
     // rho_hat / rho, evaluated per technique). The value is the same bit for bit.
     bool valueOnly = false;
+    // sample() may return after the direction: the caller reads wi only (and whether the sample
+    // was drawn), to decide whether the full sample, with the same numbers, is worth its
+    // densities and weight. Where it returns true the full sample's wi is the same bit for bit,
+    // and where it returns false so does the full sample.
+    bool directionOnly = false;
     constexpr BsdfContext(TransportMode m = TransportMode::Radiance) : mode(m) {}
     constexpr BsdfContext(TransportMode m, const RegularizationRequest& r) : mode(m), reg(r) {}
     // This context for a value-only evaluation.
     constexpr BsdfContext valueOnlyCopy() const {
         BsdfContext c = *this;
         c.valueOnly = true;
+        return c;
+    }
+    // This context for a direction-only sample.
+    constexpr BsdfContext directionOnlyCopy() const {
+        BsdfContext c = *this;
+        c.directionOnly = true;
         return c;
     }
 };

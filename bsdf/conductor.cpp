@@ -44,6 +44,10 @@ public:
         if (!(wom > 0.f)) return false;
         const Vec3 wi = reflectAbout(wo, m);
         if (!(wi.z > 0.f)) return false;
+        if (ctx.directionOnly) {  // (the checks below may still refuse the full sample)
+            out.wi = wi;
+            return true;
+        }
         // The densities only (evalRough's, at the pair's half vector): the weight below is the
         // value's closed form.
         const MicrofacetReflectionTerms r = microfacetReflectionTerms(mf, wo, wi);

@@ -93,6 +93,10 @@ public:
             if (!refractAbout(o, m, etaRel, i) || !(i.z < 0.f)) return false;
         }
         const Vec3 wi = i * s;
+        if (ctx.directionOnly) {  // (the checks below may still refuse the full sample)
+            out.wi = wi;
+            return true;
+        }
         // The densities only (the value is not needed: the weight below is its closed form).
         const float pdfFwd = pdfImpl(mf, wo, wi);
         if (!(pdfFwd > 0.f) || !std::isfinite(pdfFwd)) return false;

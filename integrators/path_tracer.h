@@ -131,13 +131,18 @@ private:
         Rng side = rng.split(uint64_t(t) + 0x9e3779b97f4a7c15ull);
         BsdfSample bs;
         const float uLobe = side.uniform();
-        if (!v.bsdf().sample(v.wo, uLobe, side.uniform2(), ctx, bs) || isBlack(bs.weight) || (bs.lobe & kDelta)) return;
+        const Vec2 u = side.uniform2();
+        // Only a light the ray hits counts: with none it can hit (and none at infinity) there is
+        // nothing to write, so the direction is drawn first, and the densities, the weight and the
+        // ray only where it may reach a light (the full sample draws the same direction).
+        const bool lightsAtInfinity = !scene.infiniteLights().empty();
+        if (!lightsAtInfinity && (!v.bsdf().sample(v.wo, uLobe, u, ctx.directionOnlyCopy(), bs) ||
+                                  !scene.mayHitEmitter(scene.spawnRay(v.p, v.ng, bs.wi))))
+            return;
+        if (!v.bsdf().sample(v.wo, uLobe, u, ctx, bs) || isBlack(bs.weight) || (bs.lobe & kDelta)) return;
         // The hit goes into a vertex of its own; only a light's is copied into z[t] (the rare case).
         PathVertex e;
         const Ray ray = scene.spawnRay(v.p, v.ng, bs.wi);
-        // Only a light it hits counts: with none it can hit (and none at infinity), the ray would
-        // find nothing to write.
-        if (scene.infiniteLights().empty() && !scene.mayHitEmitter(ray)) return;
         ++stats.rays;
         if (stats.log) stats.log->addClosest(ray, v.depth);
         if (scene.intersect(ray, e)) {

@@ -286,6 +286,47 @@ TEST_CASE("sample weight equals f cos over pdf and pdfs agree with eval and reve
     }
 }
 
+TEST_CASE("a direction-only sample draws the full sample's direction, and refuses only what it refuses", "[bsdf]") {
+    // BsdfContext::directionOnly (OPSR's regularised sample in the path tracer draws the direction
+    // first and the rest only where its ray may reach a light): with the same numbers, every
+    // full sample's direction is the direction-only sample's, bit for bit, and a direction-only
+    // sample that fails means a full sample that fails. Each BSDF with and without a request, and
+    // the smooth ones with their requests (the delta lobes ignore the flag).
+    std::vector<Named> bsdfs = nonDeltaBsdfs();
+    bsdfs.push_back({"conductor", makeConductor(kCuEta, kCuK, Color(1.f)), {}});
+    bsdfs.push_back({"dielectric", makeDielectric(1.5f), {}});
+    for (const Named& nb : bsdfs) {
+        INFO(nb.name);
+        for (const std::optional<Roughness>& rough : {nb.rough, std::optional<Roughness>(Roughness{0.4f, 0.4f})}) {
+            const BsdfContext ctx(TransportMode::Radiance, minAlphaRequest(rough));
+            Rng rng(5, 9);
+            int drawn = 0, refusedLater = 0;
+            for (int k = 0; k < 4000; ++k) {
+                const Vec3 wo = sampleUniformSphere(rng.uniform2());
+                const float ul = rng.uniform();
+                const Vec2 u = rng.uniform2();
+                BsdfSample d, f;
+                const bool direction = nb.b->sample(wo, ul, u, ctx.directionOnlyCopy(), d);
+                const bool full = nb.b->sample(wo, ul, u, ctx, f);
+                if (!direction) {
+                    CHECK_FALSE(full);
+                    continue;
+                }
+                if (!full) {
+                    ++refusedLater;
+                    continue;
+                }
+                ++drawn;
+                CHECK(d.wi.x == f.wi.x);
+                CHECK(d.wi.y == f.wi.y);
+                CHECK(d.wi.z == f.wi.z);
+            }
+            INFO(refusedLater << " direction-only samples whose full sample was refused");
+            CHECK(drawn > 1000);
+        }
+    }
+}
+
 TEST_CASE("reciprocity of reflection and adjoint relation of refraction", "[bsdf]") {
     for (const Named& nb : nonDeltaBsdfs()) {
         const RegularizationRequest r = minAlphaRequest(nb.rough);
