@@ -185,9 +185,15 @@ public:
     SmoothChoice chooseSmooth(const Technique& tech) const;
 
     // The seam (regularizer.h).
+    // The regularised BSDF's own densities (Technique::pdfLight, pdfCamera) are read only by the
+    // path tracer's MIS against its regularised emitter hit ((4): with a light it can hit); every
+    // other connection reads the value alone, so the evaluation leaves them out (valueOnly).
     BsdfContext context(const Technique& tech, End end) const {
         const float g = boundAt(tech, end);
-        return g >= 0.f ? contextFor(modeAt(end), g) : BsdfContext(modeAt(end));
+        if (!(g >= 0.f)) return BsdfContext(modeAt(end));
+        BsdfContext c = contextFor(modeAt(end), g);
+        c.valueOnly = settings_.bidirectional || !hittableLight_;
+        return c;
     }
     // The request for accumulated roughness g: every lobe at least alpha g on both axes (and (6)
     // at least alpha_hat(tau_n)).
