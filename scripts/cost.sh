@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# What a regularised sample costs: the instructions (callgrind) of PT, BPT and VCM with each
-# regulariser over those of the same integrator without one, per scene, at the same spp. An
-# instruction count does not depend on the shared machine's load, so one run per configuration
-# is enough; docs/regularisation-cost.md says how it relates to wall time.
+# What a regularised sample costs: the instructions (callgrind) of a sample of PT, BPT and VCM
+# with each regulariser over those of the same integrator without one, per scene. A sample's
+# count is the difference between renders of 10 and 2 spp over 8, so that what a render pays
+# once (start-up, scene and BVH build, writing the image, whose compression depends on its
+# content) is left out. An instruction count does not depend on the shared machine's load, so one
+# run per configuration is enough; docs/regularisation-cost.md says how it relates to wall time.
 #   bash scripts/cost.sh [OUT]      (default out/cost; needs valgrind: bash scripts/setup.sh cost)
-# Writes OUT/totals.csv (scene, integrator, configuration, instructions) and OUT/cost.md (the
-# ratios). Configurations: none; jg19 with --reg-tau 1e30 (the heuristics' bookkeeping on every
-# path, nothing regularised: images identical to none); jg19, opsr and kd13 with their defaults.
-# 13 scenes x 3 integrators x 5 configurations at 48x48, 8 spp, 1 thread each: about 5 minutes on
-# 2 cores.
+# Writes OUT/totals.csv (scene, integrator, configuration, instructions at 2 and at 10 spp) and
+# OUT/cost.md (the ratios). Configurations: none; jg19 with --reg-tau 1e30 (the heuristics'
+# bookkeeping on every path, nothing regularised: images identical to none); jg19, opsr and kd13
+# with their defaults. 13 scenes x 3 integrators x 5 configurations x 2 renders at 48x48, 1 thread
+# each: about 6 minutes on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-out/cost}"
@@ -30,19 +32,21 @@ options() {
 for sc in "${scenes[@]}"; do
   for i in pt bpt vcm; do
     for c in "${configs[@]}"; do
-      name="$(echo "$sc" | tr / _)-$i-$c"
-      echo "valgrind --tool=callgrind --callgrind-out-file=$out/runs/$name.cg build/tools/render scenes/$sc.xml -D res=48 --spp 8 --threads 1 --seed 1 --integrator $i $(options "$c") -q -o $out/runs/$name.exr"
+      for spp in 2 10; do
+        name="$(echo "$sc" | tr / _)-$i-$c-$spp"
+        echo "valgrind --tool=callgrind --callgrind-out-file=$out/runs/$name.cg build/tools/render scenes/$sc.xml -D res=48 --spp $spp --threads 1 --seed 1 --integrator $i $(options "$c") -q -o $out/runs/$name.exr"
+      done
     done
   done
 done | xargs -P "$(nproc)" -I{} sh -c '{} >/dev/null 2>&1 || { echo "cost.sh: failed: {}" >&2; exit 255; }'
 
-echo "scene,integrator,configuration,instructions" > "$out/totals.csv"
+count() { awk '/^summary:/ {print $2; exit}' "$out/runs/$1.cg"; }
+echo "scene,integrator,configuration,instructions_2spp,instructions_10spp" > "$out/totals.csv"
 for sc in "${scenes[@]}"; do
   for i in pt bpt vcm; do
     for c in "${configs[@]}"; do
       name="$(echo "$sc" | tr / _)-$i-$c"
-      n=$(awk '/^summary:/ {print $2; exit}' "$out/runs/$name.cg")
-      echo "$sc,$i,$c,$n" >> "$out/totals.csv"
+      echo "$sc,$i,$c,$(count "$name-2"),$(count "$name-10")" >> "$out/totals.csv"
     done
   done
 done
@@ -50,10 +54,10 @@ rm -f "$out"/runs/*.cg "$out"/runs/*.exr "$out"/runs/*.png
 
 awk -F, -v configs="${configs[*]}" '
   NR == 1 { next }
-  { n[$1 "," $2 "," $3] = $4; if (!($1 in seen)) { seen[$1] = 1; order[++ns] = $1 } }
+  { n[$1 "," $2 "," $3] = $5 - $4; if (!($1 in seen)) { seen[$1] = 1; order[++ns] = $1 } }
   END {
     nc = split(configs, c, " ")
-    printf "Instructions over the same integrator without a regulariser (48x48, 8 spp, 1 thread, seed 1).\n\n"
+    printf "Instructions per sample over those of the same integrator without a regulariser (48x48, 1 thread, seed 1; renders of 10 and 2 spp, their difference).\n\n"
     printf "| scene |"
     split("PT BPT VCM", label, " ")
     for (ii = 1; ii <= 3; ++ii) for (k = 2; k <= nc; ++k) printf " %s %s |", label[ii], c[k]
