@@ -277,7 +277,7 @@ private:
     }
     bool diffusion() const { return settings_.quality && settings_.diffusion; }
     bool cone() const { return settings_.specular == SpecularMode::Cone; }
-    // shortcut: the O(1) exit; fast: the path tracer's O(1) form of the loop (selectPathTracer).
+    // shortcut: the O(1) exit; fast: the path tracer's O(1) form of the loop (selectBounds).
     bool select(Technique& tech, bool shortcut, bool fast) const;
     bool selectBounds(Technique& tech, bool shortcut, bool fast) const;  // select() before the check (7)
     // The O(1) exit of select() for a connection a - b (a = y[s-1], b = z[t-1], both finite; a
