@@ -4,7 +4,9 @@
 // systems get ordinary memory.
 #pragma once
 #include <cstddef>
+#include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <new>
 #include <type_traits>
@@ -54,7 +56,8 @@ class HugeArray {
     static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_destructible_v<T>);
 
 public:
-    // Size n, contents unspecified (those of the previous iteration, or none).
+    // Size n; beyond the capacity the contents are unspecified (those of the previous iteration,
+    // or none; reserve first to keep them).
     void resize(size_t n) {
         if (n > capacity_) {
             const size_t cap = n + n / 4;  // headroom: the count varies a little per iteration
@@ -62,6 +65,15 @@ public:
             capacity_ = cap;
         }
         size_ = n;
+    }
+    // Capacity for at least n, the contents kept (for an array that grows by appending).
+    void reserve(size_t n) {
+        if (n <= capacity_) return;
+        const size_t cap = std::max(n + n / 4, 2 * capacity_);
+        T* p = HugePageAllocator<T>().allocate(cap);
+        if (size_) std::memcpy(static_cast<void*>(p), data_.get(), size_ * sizeof(T));
+        data_.reset(p);
+        capacity_ = cap;
     }
     size_t size() const { return size_; }
     T* data() { return data_.get(); }

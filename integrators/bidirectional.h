@@ -3,7 +3,7 @@
 // ppm (merging only: progressive photon mapping). PT is integrators/path_tracer.h: the same camera walk
 // with only s = 0 and s = 1.
 //
-// One iteration (pass): (1) W x H light subpaths into the flat LightPathStore, each light vertex
+// One iteration (pass): (1) W x H light subpaths into the LightPathStore, each light vertex
 // connected to the camera (t = 1) and splatted; (2) the photon hash grid over the light vertices
 // (vcm, ppm); (3) per pixel one camera subpath, evaluated with every connection (s, t) against the
 // pixel's own light subpath (n_VC = 1) and merges against all light subpaths (n_VM = W x H).
@@ -56,34 +56,31 @@ public:
         cfg_.lightPaths = float(nPaths);
         reg_.beginIteration(uint64_t(pass) + 1, scene, cfg_);  // (before the walks)
 
-        // (1) Light subpaths in fixed chunks; chunk order makes the store and the splats deterministic.
-        constexpr size_t kChunk = 1024;
-        const size_t nChunks = (nPaths + kChunk - 1) / kChunk;
-        chunks_.resize(nChunks);
+        // (1) Light subpaths in the store's fixed chunks, each walk written into its chunk; chunk
+        // order makes the store and the splats deterministic.
+        store_.begin(nPaths, useMerging_);  // (merges read the compact densities)
+        const size_t nChunks = store_.chunks();
         splats_.resize(nChunks);
         std::atomic<uint64_t> rays{0}, contributions{0}, regularised{0};
         const int maxLight = useMerging_ || useConnections_ || useLightTracing_ ? maxDepth_ : 0;
         tbb::parallel_for(size_t(0), nChunks, [&](size_t c) {
-            LightPathStore::Chunk& chunk = chunks_[c];
+            LightPathStore::Chunk& chunk = store_.chunk(c);
             SplatBuffer& splat = splats_[c];
-            chunk.vertices.clear();
-            chunk.counts.clear();
             splat.clear();
             WalkStats ws;
-            std::array<PathVertex, kMaxPathVertices> y;
             PathVertex camera = cameraEndpoint(scene, reg_);
+            constexpr size_t kChunk = LightPathStore::kChunkPaths;
             for (size_t j = c * kChunk; j < std::min(nPaths, (c + 1) * kChunk); ++j) {
                 Rng rng = Rng::forSample(settings_.seed, j, pass, /*domain=*/1);
-                int ny = lightWalk(scene, reg_, rng, maxLight, rrDepthOf(settings_), y.data(), ws);
-                chunk.counts.push_back(uint32_t(ny));
-                chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
-                if (useLightTracing_) lightTrace(scene, film, y.data(), ny, camera, splat, ws);
+                PathVertex* y = chunk.next();
+                int ny = lightWalk(scene, reg_, rng, maxLight, rrDepthOf(settings_), y, ws);
+                if (useLightTracing_) lightTrace(scene, film, y, ny, camera, splat, ws);
+                chunk.commit(ny);
             }
             rays += ws.rays;
             contributions += ws.contributions;  // (light tracing's)
             regularised += ws.regularised;
         });
-        store_.assign(chunks_);
         for (size_t c = 0; c < nChunks; ++c) {
             film.mergeSplats(splats_[c]);
             if (strategies_)
@@ -198,19 +195,18 @@ private:
                     if (i + t - 1 > maxDepth_) return;
                     // The fast form (tested against the gathered); a regulariser with per-technique
                     // densities gets the light subpath for the paths it regularises.
-                    const size_t y0 = ph.vertex - ph.depth;  // the photon's light subpath in the store
-                    const PathVertex* ly = nullptr;
+                    const PathVertex* ly = nullptr;  // the photon's light subpath in the store
                     const VertexPdfs* lp = nullptr;
                     if constexpr (Reg::kPerTechnique) {
-                        ly = store_.vertices().data() + y0;
-                        lp = store_.pdfs().data() + y0;
+                        ly = store_.path(ph.path);
+                        lp = store_.pdfs(ph.path);
                     }
                     if (!merge(reg_, ph, ly, lp, z, t, c, cameraSums.data())) return;
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
                     // (singular: the light's delta position, smooth vertices up to y[i-1] and from
                     // the merge vertex z[t-1] to the camera)
                     record(L, c.contribution * (w * mergeNorm), true, i + 1, t, pixel, c.pdfs.regularised,
-                           strategies_ && singularPath(store_.vertices().data() + y0, i, z, t), stats);
+                           strategies_ && singularPath(store_.path(ph.path), i, z, t), stats);
                 });
                 if (ppm_) break;  // PPM merges at the first non-delta camera vertex only
             }
@@ -242,7 +238,6 @@ private:
     int maxDepth_ = 0;
     float radius_ = 0.f;
     LightPathStore store_;
-    std::vector<LightPathStore::Chunk> chunks_;
     std::vector<SplatBuffer> splats_;
     HashGrid grid_;
     std::unique_ptr<StrategyImages> strategies_;

@@ -428,15 +428,12 @@ namespace {
 LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream) {
     WalkStats ws;
     LightPathStore store;
-    LightPathStore::Chunk chunk;
-    std::array<PathVertex, kMaxPathVertices> y;
+    store.begin(size_t(count), true);
     for (uint64_t j = 0; j < uint64_t(count); ++j) {
         Rng rng(j, stream);
-        int ny = lightWalk(scene, reg::kNone, rng, 6, 100, y.data(), ws);
-        chunk.counts.push_back(uint32_t(ny));
-        chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
+        LightPathStore::Chunk& chunk = store.chunk(j / LightPathStore::kChunkPaths);
+        chunk.commit(lightWalk(scene, reg::kNone, rng, 6, 100, chunk.next(), ws));
     }
-    store.assign(chunk);
     return store;
 }
 
@@ -462,7 +459,7 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
             if (!z[t - 1].connectible() || z[t - 1].infinite) continue;
             grid.query(z[t - 1].p, [&](const Photon& ph) {
                 Connection gathered, fast, fastBoth;
-                const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
+                const VertexPdfs* pdfs = store.pdfs(ph.path);
                 bool a = merge(reg::kNone, ph, nullptr, pdfs, z.data(), t, gathered);
                 bool b = merge(reg::kNone, ph, nullptr, nullptr, z.data(), t, fast);
                 bool c = merge(reg::kNone, ph, nullptr, nullptr, z.data(), t, fastBoth, cameraSums.data());
@@ -491,8 +488,16 @@ TEST_CASE("the photon grid finds exactly the usable light vertices within the ra
     Scene scene(d);
     WalkStats ws;
     MisConfig cfg{TechniqueSet::Bidirectional, true, 0.f, 512.f};
-    LightPathStore store = lightPaths(scene, 512, 5);
-    const auto& v = store.vertices();
+    LightPathStore store = lightPaths(scene, 1500, 5);  // (two chunks)
+    REQUIRE(store.chunks() == 2);
+    // Every light vertex, and its (path, depth) as a key.
+    std::vector<PathVertex> v;
+    std::vector<uint64_t> key;
+    for (size_t j = 0; j < store.paths(); ++j)
+        for (int i = 0; i < store.length(j); ++i) {
+            v.push_back(store.path(j)[i]);
+            key.push_back(uint64_t(j) << 8 | uint64_t(i));
+        }
     for (float radius : {0.02f, 0.1f, 0.4f}) {
         HashGrid grid;
         grid.build(store, radius, cfg);
@@ -500,13 +505,19 @@ TEST_CASE("the photon grid finds exactly the usable light vertices within the ra
         for (int q = 0; q < 300; ++q) {
             Rng rng(q, 6);
             Vec3 p = v[size_t(rng.uniform() * float(v.size()))].p + (rng.uniform() - 0.5f) * radius * Vec3(1, -0.5f, 0.7f);
-            std::vector<uint32_t> expected, got;
+            std::vector<uint64_t> expected, got;
             for (size_t k = 0; k < v.size(); ++k) {
                 bool usable = v[k].depth >= 1 && v[k].kind == VertexKind::Surface && v[k].connectible();
                 Vec3 dd = v[k].p - p;
-                if (usable && glm::dot(dd, dd) <= radius * radius) expected.push_back(uint32_t(k));
+                if (usable && glm::dot(dd, dd) <= radius * radius) expected.push_back(key[k]);
             }
-            grid.query(p, [&](const Photon& ph) { got.push_back(ph.vertex); });
+            grid.query(p, [&](const Photon& ph) {
+                got.push_back(uint64_t(ph.path) << 8 | ph.depth);
+                // The record is that vertex's.
+                const PathVertex& y = store.path(ph.path)[ph.depth];
+                CHECK(ph.wo == y.wo);
+                CHECK(ph.prevP == store.path(ph.path)[ph.depth - 1].p);
+            });
             std::sort(got.begin(), got.end());
             INFO("radius " << radius << " query " << q);
             CHECK(got == expected);

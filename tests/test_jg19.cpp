@@ -150,7 +150,6 @@ TEST_CASE("JG19 MIS weights equal a brute-force evaluation of the regularised de
             const MisConfig cfg{TechniqueSet::Bidirectional, merging, kPi * 0.02f * 0.02f, 256.f};
             int checked = 0, regularisedPaths = 0, twoEnds = 0, smoothEnds = 0, merges = 0, smoothMerges = 0;
             double worst = 0.0;
-            LightPathStore store;
             for (uint64_t i = 0; i < 1200; ++i) {
                 Rng rng(i, 31 + merging);
                 const int ny = lightWalk(scene, jg, rng, 6, 100, y.data(), ws);

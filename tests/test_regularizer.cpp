@@ -146,14 +146,11 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
     // Merges: the camera vertex's BSDF with the request, the densities as without.
     const MisConfig cfg{TechniqueSet::Bidirectional, true, kPi * 0.05f * 0.05f, 256.f};
     LightPathStore store;
-    LightPathStore::Chunk chunk;
+    store.begin(256, true);
     for (uint64_t j = 0; j < 256; ++j) {
         Rng rng(j, 6);
-        const int ny = lightWalk(scene, reg::kNone, rng, 6, 100, y.data(), ws);
-        chunk.counts.push_back(uint32_t(ny));
-        chunk.vertices.insert(chunk.vertices.end(), y.begin(), y.begin() + ny);
+        store.chunk(0).commit(lightWalk(scene, reg::kNone, rng, 6, 100, store.chunk(0).next(), ws));
     }
-    store.assign(chunk);
     HashGrid grid;
     grid.build(store, 0.05f, cfg);
     int merges = 0, mergesChanged = 0;
@@ -163,7 +160,7 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
         for (int t = 2; t <= nz; ++t) {
             if (!z[t - 1].connectible() || z[t - 1].infinite) continue;
             grid.query(z[t - 1].p, [&](const Photon& ph) {
-                const VertexPdfs* pdfs = store.pdfs().data() + (ph.vertex - ph.depth);
+                const VertexPdfs* pdfs = store.pdfs(ph.path);
                 Connection plain, regularised;
                 const bool okP = merge(reg::kNone, ph, nullptr, pdfs, z.data(), t, plain);
                 const bool okR = merge(rougher, ph, nullptr, pdfs, z.data(), t, regularised);

@@ -1,8 +1,8 @@
-// The flat light-subpath store of one iteration (BPT, LT, VCM, PPM): path j's vertices are
-// vertices[offset[j] .. offset[j] + count[j]). Filled in parallel by fixed chunks of paths and
-// concatenated in chunk order, so its contents do not depend on the thread schedule. Reused
-// across iterations (capacity is kept). Alongside the vertices it keeps their MIS densities in a
-// compact array, so that a merge can gather a light subpath's pdfs without touching its vertices.
+// The light-subpath store of one iteration (BPT, LT, VCM, PPM): W x H paths in fixed chunks of
+// kChunkPaths, each chunk filled by one task with its paths in order, so the contents do not
+// depend on the thread schedule. Reused across iterations (capacity is kept). Alongside the
+// vertices it can keep their MIS densities in a compact array, so that a merge can gather a light
+// subpath's pdfs without touching its vertices.
 #pragma once
 #include <span>
 #include <vector>
@@ -20,34 +20,84 @@ struct VertexPdfs {
 
 class LightPathStore {
 public:
-    // The paths one chunk of work built, in order (assign concatenates the chunks).
-    struct Chunk {
-        std::vector<PathVertex> vertices;
-        std::vector<uint32_t> counts;
+    // Path j is built by chunk j / kChunkPaths, which one thread fills with its paths in order.
+    static constexpr size_t kChunkPaths = 1024;
+
+    // The paths of one chunk, where the walks write them: each walk goes straight into the chunk's
+    // storage (no copy into a flat array afterwards: on SmallVCM's point-light box that copy and
+    // the first touch of its pages were 7% of BPT's time).
+    class Chunk {
+    public:
+        // Room for a walk of up to kMaxPathVertices vertices after the chunk's paths; commit(n)
+        // keeps its first n as the chunk's next path (the pointer is valid until the next call).
+        PathVertex* next() {
+            vertices_.reserve(vertices_.size() + size_t(kMaxPathVertices));
+            return vertices_.data() + vertices_.size();
+        }
+        void commit(int n) {
+            start_.push_back(uint32_t(vertices_.size()));
+            count_.push_back(uint32_t(n));
+            const size_t begin = vertices_.size();
+            vertices_.resize(begin + size_t(n));
+            if (withPdfs_) {
+                pdfs_.reserve(vertices_.size());  // (kept in step with the vertices)
+                pdfs_.resize(vertices_.size());
+                for (size_t k = begin; k < vertices_.size(); ++k) pdfs_[k] = VertexPdfs::of(vertices_[k]);
+            }
+        }
+        // Empty, capacity kept; withPdfs: also keep the compact densities (merges read them).
+        void clear(bool withPdfs) {
+            vertices_.resize(0);
+            pdfs_.resize(0);
+            start_.clear();
+            count_.clear();
+            withPdfs_ = withPdfs;
+        }
+        size_t paths() const { return start_.size(); }
+        size_t size() const { return vertices_.size(); }  // vertices
+        const PathVertex* vertices() const { return vertices_.data(); }
+        const VertexPdfs* pdfs() const { return pdfs_.data(); }  // null unless clear(true)
+        uint32_t start(size_t local) const { return start_[local]; }
+        int length(size_t local) const { return int(count_[local]); }
+
+    private:
+        HugeArray<PathVertex> vertices_;
+        HugeArray<VertexPdfs> pdfs_;
+        std::vector<uint32_t> start_, count_;  // per path: its first vertex in vertices_, its length
+        bool withPdfs_ = false;
     };
 
-    size_t paths() const { return offset_.size(); }
-    const PathVertex* path(size_t j) const { return vertices_.data() + offset_[j]; }
-    int length(size_t j) const { return int(count_[j]); }
-    const HugeArray<PathVertex>& vertices() const { return vertices_; }
-    const HugeArray<VertexPdfs>& pdfs() const { return pdfs_; }
+    // The store of an iteration of nPaths paths, every chunk empty (capacity kept from the last).
+    void begin(size_t nPaths, bool withPdfs) {
+        paths_ = nPaths;
+        chunks_.resize((nPaths + kChunkPaths - 1) / kChunkPaths);
+        for (Chunk& c : chunks_) c.clear(withPdfs);
+    }
+    size_t chunks() const { return chunks_.size(); }
+    Chunk& chunk(size_t c) { return chunks_[c]; }
+    const Chunk& chunk(size_t c) const { return chunks_[c]; }
 
-    // The store of one iteration: the paths built by each chunk of work, in chunk order. The
-    // chunks are copied in parallel into storage kept from the previous iteration.
-    void assign(std::span<const Chunk> chunks);
-    void assign(const Chunk& c) { assign(std::span<const Chunk>(&c, 1)); }
+    size_t paths() const { return paths_; }
+    const PathVertex* path(size_t j) const {
+        const Chunk& c = chunks_[j / kChunkPaths];
+        return c.vertices() + c.start(j % kChunkPaths);
+    }
+    const VertexPdfs* pdfs(size_t j) const {  // (begin(n, true) only)
+        const Chunk& c = chunks_[j / kChunkPaths];
+        return c.pdfs() + c.start(j % kChunkPaths);
+    }
+    int length(size_t j) const { return chunks_[j / kChunkPaths].length(j % kChunkPaths); }
 
 private:
-    HugeArray<PathVertex> vertices_;
-    HugeArray<VertexPdfs> pdfs_;
-    std::vector<uint32_t> offset_, count_;
+    std::vector<Chunk> chunks_;
+    size_t paths_ = 0;
 };
 
 // What a merge needs of a light vertex y[i] (i >= 1) and of its predecessor y[i-1], stored
 // contiguously in cell order so a range query reads consecutive memory.
 // (Its position is in the grid's compact position array, the only place the query reads it.)
 struct Photon {
-    uint32_t vertex = 0;      // index of y[i] in the store; y[0] is at vertex - depth
+    uint32_t path = 0;        // the light subpath (its index in the store) of which this is y[i]
     Vec3 wo{0.f};             // towards y[i-1]
     float fromLight = 0.f;    // pL of y[i] (names: see the top of path.h)
     Vec3 ng{0.f};
@@ -59,10 +109,11 @@ struct Photon {
     uint8_t prevDelta = 0;
     double misLight = 0.0;         // lightPrefixSum of y[i-1]
 
-    // The one initialiser: the photon of light vertex y = store[index] (i = y.depth >= 1) and its
-    // predecessor prev, written in place (the grid's scratch array is reused across iterations).
-    void set(uint32_t index, const PathVertex& y, const PathVertex& prev, bool hittable, double prevPrefix) {
-        vertex = index;
+    // The one initialiser: the photon of light vertex y = y[i] of light subpath pathIndex
+    // (i = y.depth >= 1) and its predecessor prev, written in place (the grid's scratch array is
+    // reused across iterations).
+    void set(uint32_t pathIndex, const PathVertex& y, const PathVertex& prev, bool hittable, double prevPrefix) {
+        path = pathIndex;
         wo = y.wo;
         fromLight = y.fromLight.value;
         ng = y.ng;
@@ -174,6 +225,7 @@ private:
     HugeArray<Photon> photons_;
     HugeArray<glm::vec4> positions_;             // position of photons_[k] (16 bytes), same order
     HugeArray<Photon> items_;                    // scratch, kept across iterations
+    HugeArray<glm::vec4> itemPos_;               // scratch
     HugeArray<uint32_t> cellOf_;                 // scratch
     std::vector<uint32_t> fill_;                 // scratch
     Vec3 lo_{0.f};
