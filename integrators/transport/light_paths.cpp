@@ -49,25 +49,32 @@ void HashGrid::build(const LightPathStore& store, float radius, const MisConfig&
             }
         }
     });
-    // (2) Counting sort by cell, sequential and in vertex order: deterministic.
+    // (2) Counting sort by cell, sequential and in vertex order: deterministic. Only the vertex
+    // indices move in the sequential pass (the records follow in parallel): cellStarts_[c] counts
+    // cell c, the running sum makes it the end of c, and the scatter, in reverse vertex order,
+    // moves each end down to the cell's start, keeping vertex order within a cell.
     cellStarts_.assign(tableSize + 1, 0u);
     size_t count = 0;
     for (size_t k = 0; k < nv; ++k)
-        if (cellOf_[k] != UINT32_MAX) ++cellStarts_[cellOf_[k] + 1], ++count;
+        if (cellOf_[k] != UINT32_MAX) ++cellStarts_[cellOf_[k]], ++count;
     if (count == 0) {
         cellStarts_.clear();
         return;
     }
-    for (size_t c = 1; c < cellStarts_.size(); ++c) cellStarts_[c] += cellStarts_[c - 1];
+    for (size_t c = 1; c < tableSize; ++c) cellStarts_[c] += cellStarts_[c - 1];
+    cellStarts_[tableSize] = uint32_t(count);
+    order_.resize(count);
+    for (size_t k = nv; k-- > 0;)
+        if (cellOf_[k] != UINT32_MAX) order_[--cellStarts_[cellOf_[k]]] = uint32_t(k);
+    // (3) In parallel: the records and positions in cell order.
     photons_.resize(count);
-    fill_.assign(cellStarts_.begin(), cellStarts_.end() - 1);
     positions_.resize(count);
-    for (size_t k = 0; k < nv; ++k) {
-        if (cellOf_[k] == UINT32_MAX) continue;
-        const uint32_t dst = fill_[cellOf_[k]]++;
-        photons_[dst] = items_[k];
-        positions_[dst] = itemPos_[k];
-    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 16384), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t d = r.begin(); d < r.end(); ++d) {
+            photons_[d] = items_[order_[d]];
+            positions_[d] = itemPos_[order_[d]];
+        }
+    });
 }
 
 template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::None&);

@@ -226,8 +226,7 @@ private:
     HugeArray<glm::vec4> positions_;             // position of photons_[k] (16 bytes), same order
     HugeArray<Photon> items_;                    // scratch, kept across iterations
     HugeArray<glm::vec4> itemPos_;               // scratch
-    HugeArray<uint32_t> cellOf_;                 // scratch
-    std::vector<uint32_t> fill_;                 // scratch
+    HugeArray<uint32_t> cellOf_, order_;         // scratch
     Vec3 lo_{0.f};
     float invCell_ = 1.f, radius_ = 0.f;
 };
