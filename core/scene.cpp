@@ -202,17 +202,14 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         const SphereDesc& s = desc_.spheres[i];
         spheres_.push_back({s.center.x, s.center.y, s.center.z, s.radius});
     }
+    // A few spheres are tested directly after Embree's meshes (direct_): with Embree they are a
+    // second BVH, traversed by every ray, whose leaves call back into sphereHit.
+    direct_ = desc_.spheres.size() <= kDirectSpheres;
+    if (direct_) embreeGeoms_ = geoms_.size();
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
         const SphereDesc& s = desc_.spheres[i];
-        RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
-        rtcSetGeometryUserPrimitiveCount(g, 1);
-        rtcSetGeometryUserData(g, &spheres_[i]);
-        rtcSetGeometryBoundsFunction(g, sphereBounds, nullptr);
-        rtcSetGeometryIntersectFunction(g, sphereIntersect);
-        rtcSetGeometryOccludedFunction(g, sphereOccluded);
-        rtcCommitGeometry(g);
-        unsigned id = rtcAttachGeometry(scene_, g);
-        rtcReleaseGeometry(g);
+        unsigned id = unsigned(geoms_.size());
+        if (!direct_) id = attachSphere(scene_, i);
         if (geoms_.size() <= id) geoms_.resize(id + 1);
         geoms_[id].sphere = int(i);
         geoms_[id].curvature = s.radius > 0.f ? 1.f / s.radius : 0.f;
@@ -339,7 +336,38 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     }
 }
 
+unsigned Scene::attachSphere(RTCScene scene, size_t i) {
+    RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryUserPrimitiveCount(g, 1);
+    rtcSetGeometryUserData(g, &spheres_[i]);
+    rtcSetGeometryBoundsFunction(g, sphereBounds, nullptr);
+    rtcSetGeometryIntersectFunction(g, sphereIntersect);
+    rtcSetGeometryOccludedFunction(g, sphereOccluded);
+    rtcCommitGeometry(g);
+    unsigned id = rtcAttachGeometry(scene, g);
+    rtcReleaseGeometry(g);
+    return id;
+}
+
+RTCScene Scene::embreeScene() const {
+    if (!direct_ || spheres_.empty()) return scene_;
+    // Every shape in Embree (raybench's bare casts): the meshes again, and the spheres as user
+    // geometry, with the same geometry ids as the renderer's.
+    std::call_once(fullOnce_, [&] {
+        fullScene_ = rtcNewScene(device_);
+        rtcSetSceneBuildQuality(fullScene_, RTC_BUILD_QUALITY_HIGH);
+        for (unsigned id = 0; id < embreeGeoms_; ++id) rtcAttachGeometryByID(fullScene_, rtcGetGeometry(scene_, id), id);
+        for (size_t i = 0; i < spheres_.size(); ++i) {
+            const unsigned id = const_cast<Scene*>(this)->attachSphere(fullScene_, i);
+            if (id != embreeGeoms_ + i) throw std::logic_error("embreeScene: unexpected geometry id");
+        }
+        rtcCommitScene(fullScene_);
+    });
+    return fullScene_;
+}
+
 Scene::~Scene() {
+    if (fullScene_) rtcReleaseScene(fullScene_);
     if (scene_) rtcReleaseScene(scene_);
     if (device_) rtcReleaseDevice(device_);
 }
@@ -396,6 +424,15 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(scene_, &ctx, &rh);
+    if (direct_)  // the spheres after the meshes, as Embree's callback would test them
+        for (size_t i = 0; i < spheres_.size(); ++i) {
+            const RTCRay& r = rh.ray;
+            const double t = sphereHit(spheres_[i], r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear, r.tfar);
+            if (t < 0) continue;
+            rh.ray.tfar = float(t);
+            rh.hit.geomID = unsigned(embreeGeoms_ + i);
+            rh.hit.primID = 0;
+        }
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     const GeomInfo& gi = geoms_[rh.hit.geomID];
     if constexpr (kFull) {
@@ -472,6 +509,10 @@ bool Scene::occludedRay(const Ray& r) const {
     rtcInitIntersectContext(&ctx);
     RTCRay rr;
     fillRay(rr, r);
+    if (direct_)  // the spheres first: a hit on one ends the query without Embree
+        for (const SphereGeom& s : spheres_)
+            if (sphereHit(s, rr.org_x, rr.org_y, rr.org_z, rr.dir_x, rr.dir_y, rr.dir_z, rr.tnear, rr.tfar) >= 0)
+                return true;
     rtcOccluded1(scene_, &ctx, &rr);
     return rr.tfar < 0.f;
 }

@@ -1,6 +1,7 @@
 // The renderable scene: Embree 3 geometry (triangle meshes and exact analytic spheres as user
 // geometry), materials, lights, camera. Ray offsets avoid self-intersection at any scene scale.
 #pragma once
+#include <mutex>
 #include <embree3/rtcore.h>
 #include <immintrin.h>
 #include <cstring>
@@ -105,15 +106,24 @@ public:
 
     const SceneDesc& desc() const { return desc_; }
     size_t triangleCount() const { return triangleCount_; }
-    RTCScene embreeScene() const { return scene_; }
+    // Every shape of the scene in one Embree scene (for bare Embree casts: tools/raybench), with the
+    // renderer's geometry ids. The renderer's own Embree scene leaves out up to kDirectSpheres
+    // spheres, which intersect() and occludedRay() test directly; this one is built on first use.
+    RTCScene embreeScene() const;
+    static constexpr size_t kDirectSpheres = 4;
 
 private:
     template <class Hit>
     bool intersectImpl(const Ray& ray, Hit& hit) const;
+    unsigned attachSphere(RTCScene scene, size_t i);  // sphere i as Embree user geometry; its id
 
     SceneDesc desc_;
     RTCDevice device_ = nullptr;
     RTCScene scene_ = nullptr;
+    bool direct_ = false;       // the spheres are not in scene_: tested directly, ids from embreeGeoms_ on
+    unsigned embreeGeoms_ = 0;  // geometries in scene_ (direct_ only)
+    mutable std::once_flag fullOnce_;
+    mutable RTCScene fullScene_ = nullptr;  // embreeScene(), when it differs from scene_
     std::unique_ptr<Camera> camera_;
     std::vector<Light> lights_;
     Distribution1D lightDist_;

@@ -292,3 +292,73 @@ TEST_CASE("a triangle with one shading normal has one shading frame at every hit
     CHECK(hitsPlain > 500);
     CHECK(first.size() == 2);
 }
+
+TEST_CASE("spheres tested directly hit as Embree's user geometry does, and the bare Embree scene holds them", "[scene]") {
+    // Up to Scene::kDirectSpheres spheres are tested after Embree's meshes instead of as Embree
+    // user geometry. The same box with 4 spheres (direct) and with a 5th far outside it (all five
+    // in Embree): every ray from inside the box must give the same hit (geometry id, distance,
+    // point, normals) and the same occlusion answer, bit for bit. The spheres overlap each other
+    // and the walls, and one is inside another (flipped normals), so rays meet several.
+    SceneDesc direct = cornellBox(8, makeDiffuse(Color(0.5f)));
+    direct.spheres.clear();
+    const Vec3 centres[4] = {{0.45f, -0.6f, 0.1f}, {-0.4f, -0.5f, -0.2f}, {0.1f, 0.6f, -0.7f}, {-0.4f, -0.5f, -0.2f}};
+    const float radii[4] = {0.35f, 0.45f, 0.5f, 0.2f};
+    for (int i = 0; i < 4; ++i) {
+        SphereDesc sp;
+        sp.center = centres[i];
+        sp.radius = radii[i];
+        sp.bsdf = i % 2 == 0 ? 3 : 0;
+        sp.flipNormals = i == 3;
+        direct.spheres.push_back(sp);
+    }
+    SceneDesc embree = direct;
+    SphereDesc far;
+    far.center = Vec3(50.f, 50.f, 50.f);
+    far.radius = 0.1f;
+    far.bsdf = 0;
+    embree.spheres.push_back(far);
+    REQUIRE(direct.spheres.size() <= Scene::kDirectSpheres);
+    REQUIRE(embree.spheres.size() > Scene::kDirectSpheres);
+    Scene a(direct), b(embree);
+    Rng rng(11, 3);
+    int sphereHits = 0, occluded = 0, free = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const Vec3 o = Vec3(rng.uniform(), rng.uniform(), rng.uniform()) * 1.9f - Vec3(0.95f);
+        const Vec3 d = sampleUniformSphere(rng.uniform2());
+        const Ray ray{o, d};
+        SurfaceHit ha, hb;
+        const bool hitA = a.intersect(ray, ha), hitB = b.intersect(ray, hb);
+        REQUIRE(hitA == hitB);
+        if (hitA) {
+            INFO("ray " << i);
+            REQUIRE(ha.geomId == hb.geomId);
+            REQUIRE(ha.t == hb.t);
+            REQUIRE(ha.p == hb.p);
+            REQUIRE(ha.ng == hb.ng);
+            REQUIRE(std::memcmp(&ha.shading, &hb.shading, sizeof(Frame)) == 0);
+            REQUIRE(ha.bxdf == hb.bxdf);
+            sphereHits += ha.geomId >= int(direct.meshes.size());
+            // The bare Embree scene of `a` (raybench's) finds the same shape at the same distance.
+            RTCIntersectContext ctx;
+            rtcInitIntersectContext(&ctx);
+            RTCRayHit rh{};
+            rh.ray.org_x = o.x, rh.ray.org_y = o.y, rh.ray.org_z = o.z;
+            rh.ray.dir_x = d.x, rh.ray.dir_y = d.y, rh.ray.dir_z = d.z;
+            rh.ray.tnear = ray.tMin, rh.ray.tfar = ray.tMax, rh.ray.mask = ~0u;
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(a.embreeScene(), &ctx, &rh);
+            REQUIRE(int(rh.hit.geomID) == ha.geomId);
+            REQUIRE(rh.ray.tfar == ha.t);
+        }
+        // A segment of random length along the ray.
+        Ray seg = ray;
+        seg.tMax = 2.f * rng.uniform();
+        const bool occA = a.occludedRay(seg), occB = b.occludedRay(seg);
+        REQUIRE(occA == occB);
+        occluded += occA;
+        free += !occA;
+    }
+    CHECK(sphereHits > 3000);
+    CHECK(occluded > 3000);
+    CHECK(free > 3000);
+}
