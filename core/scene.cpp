@@ -30,13 +30,22 @@ double sphereHit(const SphereGeom& s, double ox, double oy, double oz, double dx
     double lx = ox - s.cx, ly = oy - s.cy, lz = oz - s.cz;
     double a = dx * dx + dy * dy + dz * dz;
     double b = lx * dx + ly * dy + lz * dz;  // half b
+    double c = lx * lx + ly * ly + lz * lz - s.r * s.r;
+    // First, without a division, two rejections that give the answers of the test below, and
+    // cheaply (called for every ray when the spheres are tested directly):
+    // - the origin outside (c > 0) and the centre behind it (b > 0): then q < 0, so both roots
+    //   (q / a and c / q) are negative, below tnear >= 0, as computed below too;
+    // - the ray's line farther than r from the centre: ll a - b^2 is a times the squared
+    //   distance, and the margin (1e-9 ll a) is far above its rounding error (about 1e-15 ll a).
+    if (c > 0 && b > 0 && tnear >= 0) return -1;
+    const double ll = lx * lx + ly * ly + lz * lz;
+    if (ll * a - b * b > (s.r * s.r + 1e-9 * ll) * a) return -1;
     // Distance^2 of the closest approach computed without cancellation.
     double fx = lx - b / a * dx, fy = ly - b / a * dy, fz = lz - b / a * dz;
     double disc = a * (s.r * s.r - (fx * fx + fy * fy + fz * fz));
     if (disc < 0) return -1;
     double sq = std::sqrt(disc);
     double q = -(b + std::copysign(sq, b));
-    double c = lx * lx + ly * ly + lz * lz - s.r * s.r;
     double t0 = q / a, t1 = (q != 0) ? c / q : t0;
     if (t0 > t1) std::swap(t0, t1);
     if (t0 >= tnear && t0 <= tfar) return t0;
