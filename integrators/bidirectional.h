@@ -60,6 +60,10 @@ public:
         // order makes the store and the splats deterministic.
         store_.begin(nPaths, useMerging_);  // (merges read the compact densities)
         const size_t nChunks = store_.chunks();
+        // (2, during (1)) The photon grid: each light path's records are made by the task that
+        // walked it, from the light vertices a merge can use (PPM: non-delta ones, whatever the
+        // regulariser; see radiance()); finish() below sorts them.
+        if (useMerging_) grid_.begin(nChunks, radius_);
         splats_.resize(nChunks);
         std::atomic<uint64_t> rays{0}, contributions{0}, regularised{0};
         const int maxLight = useMerging_ || useConnections_ || useLightTracing_ ? maxDepth_ : 0;
@@ -76,6 +80,8 @@ public:
                 int ny = lightWalk(scene, reg_, rng, maxLight, rrDepthOf(settings_), y, ws);
                 if (useLightTracing_) lightTrace(scene, film, y, ny, camera, splat, ws);
                 chunk.commit(ny);
+                if (useMerging_ && ppm_) grid_.add(c, uint32_t(j), store_.path(j), store_.pdfs(j), ny, cfg_, reg::kNone);
+                else if (useMerging_) grid_.add(c, uint32_t(j), store_.path(j), store_.pdfs(j), ny, cfg_, reg_);
             }
             rays += ws.rays;
             contributions += ws.contributions;  // (light tracing's)
@@ -91,10 +97,7 @@ public:
         stats.contributions += contributions.load();
         stats.regularised += regularised.load();
 
-        // (2) Photon grid: light vertices after at least one segment that a merge can use (PPM:
-        // non-delta ones, whatever the regulariser; see radiance()).
-        if (useMerging_ && ppm_) grid_.build(store_, radius_, cfg_);
-        else if (useMerging_) grid_.build(store_, radius_, cfg_, reg_);
+        if (useMerging_) grid_.finish();
     }
 
     void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,

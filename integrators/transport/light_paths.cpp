@@ -6,80 +6,104 @@
 
 namespace lt {
 
-template <class Reg>
-void HashGrid::build(const LightPathStore& store, float radius, const MisConfig& cfg, const Reg& reg) {
+void HashGrid::begin(size_t batches, float radius) {
     radius_ = radius;
-    cellStarts_.clear();
-    photons_.resize(0);
-    positions_.resize(0);
-    // Vertex k of the iteration: chunk c's vertices follow those of the chunks before it (base).
-    std::vector<size_t> base(store.chunks() + 1, 0);
-    for (size_t c = 0; c < store.chunks(); ++c) base[c + 1] = base[c] + store.chunk(c).size();
-    const size_t nv = base.back();
     // Cell coordinates are relative to the origin (any fixed origin works; negative cells hash too).
     lo_ = Vec3(0.f);
     invCell_ = 1.f / (2.f * radius);
-    const size_t tableSize = std::max<size_t>(nv, 1024);
-    // (1) In parallel, a chunk at a time: one photon record (or none) per light vertex, and its cell.
-    items_.resize(nv);
-    itemPos_.resize(nv);
-    cellOf_.resize(nv);
-    tbb::parallel_for(size_t(0), store.chunks(), [&](size_t c) {
-        const LightPathStore::Chunk& chunk = store.chunk(c);
-        for (size_t local = 0; local < chunk.paths(); ++local) {
-            const size_t first = chunk.start(local);
-            const PathVertex* y = chunk.vertices() + first;
-            const VertexPdfs* pdfs = chunk.pdfs() + first;
-            const uint32_t pathIndex = uint32_t(c * LightPathStore::kChunkPaths + local);
-            const bool hittable = y[0].light && y[0].light->isHittable();
-            double prefix = 0.0;  // the light-side MIS prefix, recursive along the path
-            for (int i = 0; i < chunk.length(local); ++i) {
-                const size_t k = base[c] + first + size_t(i);
-                const double prevPrefix = prefix;
-                prefix = lightPrefixSum(pdfs, i, hittable, cfg, i > 0 ? prefix : 0.0);
-                const PathVertex& v = y[i];
-                if (i < 1 || v.kind != VertexKind::Surface || !reg.mergeable(v)) {
-                    cellOf_[k] = UINT32_MAX;
-                    continue;
-                }
-                items_[k].set(pathIndex, v, y[i - 1], hittable, prevPrefix);
-                itemPos_[k] = glm::vec4(v.p, 0.f);
-                Vec3 g = (v.p - lo_) * invCell_;
-                cellOf_[k] = cellHashMod(glm::ivec3(std::floor(g.x), std::floor(g.y), std::floor(g.z)), tableSize);
-            }
-        }
-    });
-    // (2) Counting sort by cell, sequential and in vertex order: deterministic. Only the vertex
-    // indices move in the sequential pass (the records follow in parallel): cellStarts_[c] counts
-    // cell c, the running sum makes it the end of c, and the scatter, in reverse vertex order,
-    // moves each end down to the cell's start, keeping vertex order within a cell.
-    cellStarts_.assign(tableSize + 1, 0u);
-    size_t count = 0;
-    for (size_t k = 0; k < nv; ++k)
-        if (cellOf_[k] != UINT32_MAX) ++cellStarts_[cellOf_[k]], ++count;
-    if (count == 0) {
-        cellStarts_.clear();
-        return;
+    batches_.resize(batches);
+    for (Batch& b : batches_) {
+        b.items.resize(0);
+        b.positions.resize(0);
+        b.hashes.resize(0);
+        b.vertices = 0;
     }
+}
+
+template <class Reg>
+void HashGrid::add(size_t batch, uint32_t pathIndex, const PathVertex* y, const VertexPdfs* pdfs, int n,
+                   const MisConfig& cfg, const Reg& reg) {
+    Batch& b = batches_[batch];
+    b.vertices += size_t(n);
+    const bool hittable = n > 0 && y[0].light && y[0].light->isHittable();
+    double prefix = 0.0;  // the light-side MIS prefix, recursive along the path
+    for (int i = 0; i < n; ++i) {
+        const double prevPrefix = prefix;
+        prefix = lightPrefixSum(pdfs, i, hittable, cfg, i > 0 ? prefix : 0.0);
+        const PathVertex& v = y[i];
+        if (i < 1 || v.kind != VertexKind::Surface || !reg.mergeable(v)) continue;
+        const size_t k = b.items.size();
+        b.items.reserve(k + 1);
+        b.positions.reserve(k + 1);
+        b.hashes.reserve(k + 1);
+        b.items.resize(k + 1);
+        b.positions.resize(k + 1);
+        b.hashes.resize(k + 1);
+        b.items[k].set(pathIndex, v, y[i - 1], hittable, prevPrefix);
+        b.positions[k] = glm::vec4(v.p, 0.f);
+        const Vec3 g = (v.p - lo_) * invCell_;
+        b.hashes[k] = cellHash32(glm::ivec3(std::floor(g.x), std::floor(g.y), std::floor(g.z)));
+    }
+}
+
+void HashGrid::finish() {
+    cellStarts_.clear();
+    photons_.resize(0);
+    positions_.resize(0);
+    size_t nv = 0, count = 0;
+    std::vector<size_t> base(batches_.size() + 1, 0);  // a batch's first record in the count
+    for (size_t c = 0; c < batches_.size(); ++c) {
+        nv += batches_[c].vertices;
+        base[c + 1] = base[c] + batches_[c].items.size();
+    }
+    count = base.back();
+    if (count == 0) return;
+    const size_t tableSize = std::max<size_t>(nv, 1024);
+    // Counting sort by cell, sequential and in batch, path and vertex order: deterministic.
+    // cellStarts_[c] counts cell c, the running sum makes it the end of c, and the pass in reverse
+    // order moves each end down to the cell's start, giving every record its place (its hash's
+    // entry becomes the place), in that order within a cell.
+    cellStarts_.assign(tableSize + 1, 0u);
+    for (Batch& b : batches_)
+        for (size_t k = 0; k < b.items.size(); ++k) b.hashes[k] = mapHash(b.hashes[k], tableSize), ++cellStarts_[b.hashes[k]];
     for (size_t c = 1; c < tableSize; ++c) cellStarts_[c] += cellStarts_[c - 1];
     cellStarts_[tableSize] = uint32_t(count);
-    order_.resize(count);
-    for (size_t k = nv; k-- > 0;)
-        if (cellOf_[k] != UINT32_MAX) order_[--cellStarts_[cellOf_[k]]] = uint32_t(k);
-    // (3) In parallel: the records and positions in cell order.
+    for (size_t c = batches_.size(); c-- > 0;)
+        for (size_t k = batches_[c].items.size(); k-- > 0;) {
+            uint32_t& h = batches_[c].hashes[k];
+            h = --cellStarts_[h];
+        }
+    // In parallel: the records and positions to their places.
     photons_.resize(count);
     positions_.resize(count);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 16384), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t d = r.begin(); d < r.end(); ++d) {
-            photons_[d] = items_[order_[d]];
-            positions_[d] = itemPos_[order_[d]];
+    tbb::parallel_for(size_t(0), batches_.size(), [&](size_t c) {
+        const Batch& b = batches_[c];
+        for (size_t k = 0; k < b.items.size(); ++k) {
+            photons_[b.hashes[k]] = b.items[k];
+            positions_[b.hashes[k]] = b.positions[k];
         }
     });
 }
 
-template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::None&);
-template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Jg19&);
-template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Kd13&);
-template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const reg::Opsr&);
+template <class Reg>
+void HashGrid::build(const LightPathStore& store, float radius, const MisConfig& cfg, const Reg& reg) {
+    begin(store.chunks(), radius);
+    tbb::parallel_for(size_t(0), store.chunks(), [&](size_t c) {
+        for (size_t local = 0; local < store.chunk(c).paths(); ++local) {
+            const size_t j = c * LightPathStore::kChunkPaths + local;
+            add(c, uint32_t(j), store.path(j), store.pdfs(j), store.length(j), cfg, reg);
+        }
+    });
+    finish();
+}
+
+#define LT_INSTANTIATE_GRID(Reg)                                                                        \
+    template void HashGrid::add(size_t, uint32_t, const PathVertex*, const VertexPdfs*, int, const MisConfig&, \
+                                const Reg&);                                                            \
+    template void HashGrid::build(const LightPathStore&, float, const MisConfig&, const Reg&);
+LT_INSTANTIATE_GRID(reg::None)
+LT_INSTANTIATE_GRID(reg::Jg19)
+LT_INSTANTIATE_GRID(reg::Kd13)
+LT_INSTANTIATE_GRID(reg::Opsr)
 
 }  // namespace lt

@@ -138,6 +138,16 @@ public:
     // the regulariser lets a merge gather (reg.mergeable: without one, not a delta vertex; under
     // JG19 also the smooth ones its request makes rough). Instantiated for the renderer's
     // policies in light_paths.cpp.
+    // In three steps, so that a light path's photon records are made while its vertices are still
+    // in cache (by the task that walked it): begin() before the walks, with one batch per chunk of
+    // the store; add() for each light path, in order within its batch (batches concurrently);
+    // finish() sorts the records by cell. The grid is the same whatever the thread schedule.
+    void begin(size_t batches, float radius);
+    template <class Reg>
+    void add(size_t batch, uint32_t pathIndex, const PathVertex* y, const VertexPdfs* pdfs, int n,
+             const MisConfig& cfg, const Reg& reg);
+    void finish();
+    // All three over a filled store (built with its densities).
     template <class Reg>
     void build(const LightPathStore& store, float radius, const MisConfig& cfg, const Reg& reg);
     void build(const LightPathStore& store, float radius, const MisConfig& cfg) { build(store, radius, cfg, reg::kNone); }
@@ -211,22 +221,30 @@ public:
 private:
     // Teschner et al.'s hash, mixed (murmur3 finaliser) and mapped to [0, tableSize) by a
     // multiply-shift instead of a modulo (eight integer divisions per query were measurable).
-    static uint32_t cellHashMod(const glm::ivec3& c, size_t tableSize) {
+    static uint32_t cellHash32(const glm::ivec3& c) {
         uint32_t h = (uint32_t(c.x) * 73856093u) ^ (uint32_t(c.y) * 19349663u) ^ (uint32_t(c.z) * 83492791u);
         h ^= h >> 16;
         h *= 0x85ebca6bu;
         h ^= h >> 13;
         h *= 0xc2b2ae35u;
         h ^= h >> 16;
-        return uint32_t((uint64_t(h) * uint64_t(tableSize)) >> 32);
+        return h;
     }
-    uint32_t cellHash(const glm::ivec3& c) const { return cellHashMod(c, cellStarts_.size() - 1); }
+    static uint32_t mapHash(uint32_t h, size_t tableSize) { return uint32_t((uint64_t(h) * uint64_t(tableSize)) >> 32); }
+    uint32_t cellHash(const glm::ivec3& c) const { return mapHash(cellHash32(c), cellStarts_.size() - 1); }
+    // The records one batch (a chunk of light paths) made, in path and vertex order, with their
+    // positions and cells' 32-bit hashes (mapped to the table at finish(), whose size is set by
+    // the number of light vertices of all batches).
+    struct Batch {
+        HugeArray<Photon> items;
+        HugeArray<glm::vec4> positions;
+        HugeArray<uint32_t> hashes;
+        size_t vertices = 0;  // light vertices seen, merge-usable or not
+    };
     HugeVector<uint32_t> cellStarts_;
     HugeArray<Photon> photons_;
     HugeArray<glm::vec4> positions_;             // position of photons_[k] (16 bytes), same order
-    HugeArray<Photon> items_;                    // scratch, kept across iterations
-    HugeArray<glm::vec4> itemPos_;               // scratch
-    HugeArray<uint32_t> cellOf_, order_;         // scratch
+    std::vector<Batch> batches_;                 // kept across iterations
     Vec3 lo_{0.f};
     float invCell_ = 1.f, radius_ = 0.f;
 };
