@@ -308,6 +308,35 @@ TEST_CASE("MIS: the path tracer's closed-form weights equal the plain sum", "[pt
     CHECK(nonTrivial > 10000);  // most cases compare two valid techniques, not just 0 or 1
 }
 
+// misWeight takes BPT's own loops (sumConnections in path.cpp) for the bidirectional set without
+// merging: the same operations as the plain sum, so the same weights bit for bit, for every path
+// length (up to the longest), delta pattern, hittability and density (zeros included), and every s.
+TEST_CASE("MIS: BPT's connection-only sum equals the plain sum bit for bit", "[bpt][mis]") {
+    Rng rng(6, 9);
+    const MisConfig cfg{TechniqueSet::Bidirectional};
+    int checked = 0, nonTrivial = 0;
+    for (int trial = 0; trial < 20000; ++trial) {
+        PathPdfs p;
+        p.n = 2 + int(rng.uniform() * float(trial % 10 == 0 ? kMaxPathVertices - 2 : 10));
+        for (int i = 0; i < p.n; ++i) {
+            // densities over 12 decades, sometimes 0 (an entry a walk could not fill)
+            p.fromLight[i] = rng.uniform() < 0.1f ? 0.f : std::pow(10.f, 12.f * rng.uniform() - 6.f);
+            p.fromCamera[i] = rng.uniform() < 0.1f ? 0.f : std::pow(10.f, 12.f * rng.uniform() - 6.f);
+            p.delta[i] = rng.uniform() < 0.2f;
+        }
+        p.lightHittable = rng.uniform() < 0.7f;
+        for (int s = 0; s < p.n; ++s) {
+            const float fast = misWeight(p, s, cfg), plain = misWeightGeneral(p, s, cfg);
+            INFO("n " << p.n << " s " << s);
+            REQUIRE(std::memcmp(&fast, &plain, sizeof(float)) == 0);
+            ++checked;
+            nonTrivial += plain > 0.f && plain < 1.f;
+        }
+    }
+    CHECK(checked > 100000);
+    CHECK(nonTrivial > 50000);
+}
+
 // The path tracer's fast forms: its camera walk computes densities at emitter hits only
 // (WalkPdfs::EmitterHits) and its connections gather pdf entries 0..misReadLimit only. Both must
 // give exactly the weights of a full walk with a full gather, for NEE (s = 1) and emitter hits (s = 0).

@@ -75,12 +75,34 @@ template <bool scaled>
     return sum;
 }
 
+// BPT's sum over techniques (TechniqueSet::Bidirectional without merging, unscaled, no
+// fast-form parts): the loops of sumOverTechniques with what they test written out for that case
+// (every technique with a camera vertex; k = n, the pinhole, never counts), the same operations
+// in the same order, so the same double (tests/test_bidirectional.cpp compares them bit for bit).
+// Half the instructions of the general loops, which test the technique set, the merges and the
+// fast forms at every k.
+double sumConnections(const PathPdfs& pdfs, int base) {
+    const int n = pdfs.n;
+    auto valid = [&](int k) { return k == 0 ? pdfs.lightHittable : !pdfs.delta[k - 1] && !pdfs.delta[k]; };  // (0 <= k < n)
+    double sum = 0.0, r = 1.0;
+    for (int k = base; k < n; ++k) {
+        if (k > base) r *= remapDensity(pdfs.fromLight[k - 1]) / remapDensity(pdfs.fromCamera[k - 1]);
+        if (valid(k)) sum += r * r;
+    }
+    r = 1.0;
+    for (int k = base - 1; k >= 0; --k) {
+        r *= remapDensity(pdfs.fromCamera[k]) / remapDensity(pdfs.fromLight[k]);
+        if (valid(k)) sum += r * r;
+    }
+    return sum;
+}
+
 // The plain sum, with the per-technique factors when the path has them.
 double misSumGeneral(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     return pdfs.perTechnique ? sumOverTechniques<true>(pdfs, base, cfg) : sumOverTechniques<false>(pdfs, base, cfg);
 }
 
-// The plain sum, or the path tracer's closed form (unscaled paths only).
+// The plain sum, or the path tracer's closed form, or BPT's loops (unscaled paths only).
 double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     if (pdfs.perTechnique) return sumOverTechniques<true>(pdfs, base, cfg);
     if (cfg.set == TechniqueSet::PathTracer && !cfg.merging && base <= 1 && pdfs.belowBase < 0.0 &&
@@ -88,6 +110,8 @@ double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
         const detail::MisFraction f = detail::misSumPathTracer(pdfs, base);
         return f.den / f.num;
     }
+    if (cfg.set == TechniqueSet::Bidirectional && !cfg.merging && pdfs.belowBase < 0.0 && pdfs.aboveBase < 0.0)
+        return sumConnections(pdfs, base);
     return sumOverTechniques<false>(pdfs, base, cfg);
 }
 
