@@ -308,14 +308,14 @@ TEST_CASE("MIS: the path tracer's closed-form weights equal the plain sum", "[pt
     CHECK(nonTrivial > 10000);  // most cases compare two valid techniques, not just 0 or 1
 }
 
-// misWeight takes BPT's own loops (sumConnections in path.cpp) for the bidirectional set without
-// merging: the same operations as the plain sum, so the same weights bit for bit, for every path
-// length (up to the longest), delta pattern, hittability and density (zeros included), and every s.
-TEST_CASE("MIS: BPT's connection-only sum equals the plain sum bit for bit", "[bpt][mis]") {
+// misWeight takes BPT's and VCM's own loops (sumBidirectional in path.cpp): the same operations as
+// the plain sum, so the same weights bit for bit, for every path length (up to the longest), delta
+// pattern, hittability and density (zeros included), merge's precomputed sums, and every s.
+TEST_CASE("MIS: BPT's and VCM's own loops equal the plain sum bit for bit", "[bpt][vcm][mis]") {
     Rng rng(6, 9);
-    const MisConfig cfg{TechniqueSet::Bidirectional};
     int checked = 0, nonTrivial = 0;
     for (int trial = 0; trial < 20000; ++trial) {
+        const MisConfig cfg{TechniqueSet::Bidirectional, trial % 2 == 1, 1e-4f, 65536.f};
         PathPdfs p;
         p.n = 2 + int(rng.uniform() * float(trial % 10 == 0 ? kMaxPathVertices - 2 : 10));
         for (int i = 0; i < p.n; ++i) {
@@ -325,9 +325,13 @@ TEST_CASE("MIS: BPT's connection-only sum equals the plain sum bit for bit", "[b
             p.delta[i] = rng.uniform() < 0.2f;
         }
         p.lightHittable = rng.uniform() < 0.7f;
+        if (cfg.merging) {  // a merge's precomputed sums (fast forms), sometimes
+            p.belowBase = rng.uniform() < 0.3f ? std::pow(10.0, 6.0 * rng.uniform() - 3.0) : -1.0;
+            p.aboveBase = rng.uniform() < 0.3f ? std::pow(10.0, 6.0 * rng.uniform() - 3.0) : -1.0;
+        }
         for (int s = 0; s < p.n; ++s) {
             const float fast = misWeight(p, s, cfg), plain = misWeightGeneral(p, s, cfg);
-            INFO("n " << p.n << " s " << s);
+            INFO("n " << p.n << " s " << s << " merging " << cfg.merging);
             REQUIRE(std::memcmp(&fast, &plain, sizeof(float)) == 0);
             ++checked;
             nonTrivial += plain > 0.f && plain < 1.f;
