@@ -163,8 +163,12 @@ public:
         if (cellStarts_.empty()) return;
         Vec3 g = (p - lo_) * invCell_ - Vec3(0.5f);
         glm::ivec3 c0(std::floor(g.x), std::floor(g.y), std::floor(g.z));
+        // cellHash of c0 + (c & 1, (c >> 1) & 1, c >> 2), its products taken once per coordinate.
+        const uint32_t hx[2] = {hashX(c0.x), hashX(c0.x + 1)}, hy[2] = {hashY(c0.y), hashY(c0.y + 1)},
+                       hz[2] = {hashZ(c0.z), hashZ(c0.z + 1)};
+        const size_t tableSize = cellStarts_.size() - 1;
         for (int c = 0; c < 8; ++c) {
-            cells.hash[c] = cellHash(c0 + glm::ivec3(c & 1, (c >> 1) & 1, c >> 2));
+            cells.hash[c] = mapHash(mix(hx[c & 1] ^ hy[(c >> 1) & 1] ^ hz[c >> 2]), tableSize);
             __builtin_prefetch(&cellStarts_[cells.hash[c]]);
         }
     }
@@ -174,8 +178,10 @@ public:
         for (int c = 0; c < 8; ++c) {
             cells.begin[c] = cellStarts_[cells.hash[c]];
             cells.end[c] = cellStarts_[cells.hash[c] + 1];
+            if (cells.begin[c] == cells.end[c]) continue;
             // Two of the 8 cells may hash to the same entry: scan it once (a photon must not be
-            // merged twice; the brute-force comparison test found this).
+            // merged twice; the brute-force comparison test found this). (An empty entry needs
+            // no check: about half of them, for a query on a surface.)
             for (int j = 0; j < c; ++j)
                 if (cells.hash[j] == cells.hash[c]) cells.end[c] = cells.begin[c];
             // Four positions per cache line; at most four lines per cell.
@@ -221,8 +227,10 @@ public:
 private:
     // Teschner et al.'s hash, mixed (murmur3 finaliser) and mapped to [0, tableSize) by a
     // multiply-shift instead of a modulo (eight integer divisions per query were measurable).
-    static uint32_t cellHash32(const glm::ivec3& c) {
-        uint32_t h = (uint32_t(c.x) * 73856093u) ^ (uint32_t(c.y) * 19349663u) ^ (uint32_t(c.z) * 83492791u);
+    static uint32_t hashX(int x) { return uint32_t(x) * 73856093u; }
+    static uint32_t hashY(int y) { return uint32_t(y) * 19349663u; }
+    static uint32_t hashZ(int z) { return uint32_t(z) * 83492791u; }
+    static uint32_t mix(uint32_t h) {
         h ^= h >> 16;
         h *= 0x85ebca6bu;
         h ^= h >> 13;
@@ -230,8 +238,8 @@ private:
         h ^= h >> 16;
         return h;
     }
+    static uint32_t cellHash32(const glm::ivec3& c) { return mix(hashX(c.x) ^ hashY(c.y) ^ hashZ(c.z)); }
     static uint32_t mapHash(uint32_t h, size_t tableSize) { return uint32_t((uint64_t(h) * uint64_t(tableSize)) >> 32); }
-    uint32_t cellHash(const glm::ivec3& c) const { return mapHash(cellHash32(c), cellStarts_.size() - 1); }
     // The records one batch (a chunk of light paths) made, in path and vertex order, with their
     // positions and cells' 32-bit hashes (mapped to the table at finish(), whose size is set by
     // the number of light vertices of all batches).
