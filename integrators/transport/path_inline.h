@@ -82,10 +82,12 @@ inline void applyContinuation(BsdfEval& e, const Bxdf& b) {
 // regularised BSDF's own density of wi (for a policy whose competing technique samples it: OPSR's
 // regularised BSDF sample). Where the request cannot change the BSDF (requestCanChange): one
 // evaluation, as ever, ratio 1 and regularisedPdf left as it was.
+// (mayRequest false: ctx carries no request, as reg::None's; see reg::kMayRequest.)
+template <bool mayRequest = true>
 inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio,
                                  float& regularisedPdf) {
     BsdfEval e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
-    if (requestCanChange(v, ctx)) {
+    if (mayRequest && requestCanChange(v, ctx)) {
         const Color plain = e.f;
         const BsdfEval r = v.bsdf().eval(v.wo, wi, ctx);
         e.f = r.f;
@@ -234,7 +236,8 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
         eb.pdfFwd = cam.directionPdf(wBA);
         cosB = glm::dot(cam.forward(), wBA);
     } else {
-        eb = detail::evalAtConnection(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera, tech.pdfCamera);
+        eb = detail::evalAtConnection<reg::kMayRequest<Reg>>(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera,
+                                                             tech.pdfCamera);
         cosB = std::abs(glm::dot(b.shading.n, wBA));
     }
     if (isBlack(eb.f)) return false;
@@ -243,7 +246,8 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     if (aLight) {
         fa = detail::lightEndpointValue(a, -wBA);
     } else {
-        ea = detail::evalAtConnection(a, -wBA, reg.context(tech, End::Light), tech.ratioLight, tech.pdfLight);
+        ea = detail::evalAtConnection<reg::kMayRequest<Reg>>(a, -wBA, reg.context(tech, End::Light), tech.ratioLight,
+                                                             tech.pdfLight);
         fa = ea.f;
     }
     if (isBlack(fa)) return false;

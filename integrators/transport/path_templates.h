@@ -218,7 +218,8 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
     if (glm::dot(ph.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
     Technique tech{y, i + 1, z, t, &ph};
     if (!reg.select(tech)) return false;  // regularizer.h (5)
-    BsdfEval ez = detail::evalAtConnection(zv, ph.wo, reg.context(tech, End::Camera), tech.ratioCamera, tech.pdfCamera);
+    BsdfEval ez = detail::evalAtConnection<reg::kMayRequest<Reg>>(zv, ph.wo, reg.context(tech, End::Camera),
+                                                                  tech.ratioCamera, tech.pdfCamera);
     if (isBlack(ez.f)) return false;
     c.contribution = zv.beta * ez.f * ph.beta;
     // The fast forms (photon.misLight, cameraSums) hold unregularised sums: a path on which the

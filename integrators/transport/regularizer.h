@@ -88,6 +88,7 @@
 //        where coneHitsCompete() (more than one light), alone under BSDF sampling only.
 //        A policy without the member has no such hits (None, JG19, OPSR).
 #pragma once
+#include <type_traits>
 #include <atomic>
 #include <cstdint>
 #include "bsdf/bsdf.h"
@@ -228,6 +229,10 @@ struct None {
 };
 // The unregularised policy as a value, for callers that pass it directly (the tests).
 inline constexpr None kNone{};
+// Whether a policy's contexts may carry a request (None's never do: the connection routines then
+// evaluate a connection end once, without asking whether a request could change it).
+template <class Reg>
+inline constexpr bool kMayRequest = !std::is_same_v<Reg, None>;
 
 }  // namespace reg
 
