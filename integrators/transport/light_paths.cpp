@@ -25,6 +25,10 @@ void HashGrid::add(size_t batch, uint32_t pathIndex, const PathVertex* y, const 
                    const MisConfig& cfg, const Reg& reg) {
     Batch& b = batches_[batch];
     b.vertices += size_t(n);
+    size_t k = b.items.size();  // (room for every vertex of the path; the size set at the end)
+    b.items.reserve(k + size_t(n));
+    b.positions.reserve(k + size_t(n));
+    b.hashes.reserve(k + size_t(n));
     const bool hittable = n > 0 && y[0].light && y[0].light->isHittable();
     double prefix = 0.0;  // the light-side MIS prefix, recursive along the path
     for (int i = 0; i < n; ++i) {
@@ -32,18 +36,15 @@ void HashGrid::add(size_t batch, uint32_t pathIndex, const PathVertex* y, const 
         prefix = lightPrefixSum(pdfs, i, hittable, cfg, i > 0 ? prefix : 0.0);
         const PathVertex& v = y[i];
         if (i < 1 || v.kind != VertexKind::Surface || !reg.mergeable(v)) continue;
-        const size_t k = b.items.size();
-        b.items.reserve(k + 1);
-        b.positions.reserve(k + 1);
-        b.hashes.reserve(k + 1);
-        b.items.resize(k + 1);
-        b.positions.resize(k + 1);
-        b.hashes.resize(k + 1);
-        b.items[k].set(pathIndex, v, y[i - 1], hittable, prevPrefix);
-        b.positions[k] = glm::vec4(v.p, 0.f);
+        b.items.data()[k].set(pathIndex, v, y[i - 1], hittable, prevPrefix);
+        b.positions.data()[k] = glm::vec4(v.p, 0.f);
         const Vec3 g = (v.p - lo_) * invCell_;
-        b.hashes[k] = cellHash32(glm::ivec3(std::floor(g.x), std::floor(g.y), std::floor(g.z)));
+        b.hashes.data()[k] = cellHash32(cellOf(g));
+        ++k;
     }
+    b.items.resize(k);
+    b.positions.resize(k);
+    b.hashes.resize(k);
 }
 
 void HashGrid::finish() {
