@@ -146,30 +146,33 @@ private:
         // prefetched) now, and each vertex's photon ranges fetched before its connections, so
         // that the memory latency of the queries overlaps the connection work.
         std::array<HashGrid::Cells, kMaxPathVertices> cells;
+        // Connections and merges at the vertices the regulariser makes connectible and mergeable
+        // (without one: not at infinity, not delta; JG19 adds the smooth vertices its request makes
+        // rough to both, KD13 to connections). PPM, which has no MIS to share a path between
+        // techniques, merges at non-delta vertices only, the first one of the camera walk.
+        auto canMergeAt = [&](const PathVertex& v) {
+            return useMerging_ && !v.infinite && (ppm_ ? v.connectible() : reg_.mergeable(v));
+        };
         // And the camera side of the merge weights, once per camera vertex (cameraPrefixSum), so
         // that a merge's weight costs O(1) on both sides (tested against the gathered form).
         std::array<double, kMaxPathVertices> cameraSums;
         if (useMerging_) {
-            for (int t = 2; t <= nz; ++t) grid_.locate(z[t - 1].p, cells[t - 1]);
+            for (int t = 2; t <= nz; ++t)
+                if (canMergeAt(z[t - 1])) grid_.locate(z[t - 1].p, cells[t - 1]);
             double prev = 0.0;
             for (int m = 0; m + 1 < nz; ++m) cameraSums[m] = prev = cameraPrefixSum(z, m, cfg_, prev);
         }
         for (int t = 2; t <= nz; ++t) {
             const PathVertex& v = z[t - 1];
-            if (useMerging_) grid_.fetch(cells[t - 1]);
+            const bool canConnect = !v.infinite && reg_.connectible(v);
+            const bool canMerge = canMergeAt(v);
+            if (canMerge) grid_.fetch(cells[t - 1]);
             // s = 0: emitter hit.
             if (v.light && !(settings_.hideEmitters && t == 2) && (useConnections_ || (ppm_ && allDelta))) {
                 Color c = emitterHit(scene, reg_, z, t, pdfs);
                 if (!isBlack(c))
                     record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel, false, false, stats);
             }
-            // Connections and merges at the vertices the regulariser makes connectible and
-            // mergeable (without one: not at infinity, not delta; JG19 adds the smooth vertices its
-            // request makes rough to both, KD13 to connections). PPM, which has no MIS to share a
-            // path between techniques, merges at non-delta vertices only, the first one of the
-            // camera walk.
-            const bool canConnect = !v.infinite && reg_.connectible(v);
-            const bool canMerge = !v.infinite && (ppm_ ? v.connectible() : reg_.mergeable(v));
             if (!canConnect && !canMerge) {
                 allDelta = allDelta && v.delta;
                 continue;
