@@ -1,6 +1,7 @@
 // BPT, LT, VCM and PPM on the shared store: agreement with PT, each technique alone, MIS partition
 // of unity against a from-scratch evaluation, robustness.
 #include <catch2/catch.hpp>
+#include <tbb/task_arena.h>
 #include <algorithm>
 #include <cstring>
 #include <map>
@@ -532,8 +533,12 @@ TEST_CASE("the photon grid finds exactly the usable light vertices within the ra
             key.push_back(uint64_t(j) << 8 | uint64_t(i));
         }
     for (float radius : {0.02f, 0.1f, 0.4f}) {
-        HashGrid grid;
+        HashGrid grid, grid1, grid61;
         grid.build(store, radius, cfg);
+        // The build's counting sort splits the cells into one range per thread: the same grid,
+        // photon for photon in the same order, with 1 and 61 threads (61 ranges: boundary cells hold photons).
+        tbb::task_arena(1).execute([&] { grid1.build(store, radius, cfg); });
+        tbb::task_arena(61).execute([&] { grid61.build(store, radius, cfg); });
         size_t found = 0;
         for (int q = 0; q < 300; ++q) {
             Rng rng(q, 6);
@@ -544,6 +549,9 @@ TEST_CASE("the photon grid finds exactly the usable light vertices within the ra
                 Vec3 dd = v[k].p - p;
                 if (usable && glm::dot(dd, dd) <= radius * radius) expected.push_back(key[k]);
             }
+            std::vector<uint64_t> got1, got61;
+            grid1.query(p, [&](const Photon& ph) { got1.push_back(uint64_t(ph.path) << 8 | ph.depth); });
+            grid61.query(p, [&](const Photon& ph) { got61.push_back(uint64_t(ph.path) << 8 | ph.depth); });
             grid.query(p, [&](const Photon& ph) {
                 got.push_back(uint64_t(ph.path) << 8 | ph.depth);
                 // The record is that vertex's.
@@ -551,6 +559,8 @@ TEST_CASE("the photon grid finds exactly the usable light vertices within the ra
                 CHECK(ph.wo == y.wo);
                 CHECK(ph.prevP == store.path(ph.path)[ph.depth - 1].p);
             });
+            CHECK(got1 == got);  // (in query order)
+            CHECK(got61 == got);
             std::sort(got.begin(), got.end());
             INFO("radius " << radius << " query " << q);
             CHECK(got == expected);

@@ -3,6 +3,8 @@
 #include "integrators/transport/kd13.h"
 #include "integrators/transport/opsr.h"
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#include <algorithm>
 
 namespace lt {
 
@@ -60,28 +62,49 @@ void HashGrid::finish() {
     count = base.back();
     if (count == 0) return;
     const size_t tableSize = std::max<size_t>(nv, 1024);
-    // Counting sort by cell, sequential and in batch, path and vertex order: deterministic.
-    // cellStarts_[c] counts cell c, the running sum makes it the end of c, and the pass in reverse
-    // order moves each end down to the cell's start, giving every record its place (its hash's
-    // entry becomes the place), in that order within a cell.
+    // Counting sort by cell, in batch, path and vertex order within a cell: deterministic. The
+    // cells are split into ranges, one task each (the same result for any number of ranges): a
+    // task counts its cells' records (cellStarts_[c] counts cell c), the ranges' totals give each
+    // range its first place, the running sum makes each entry the end of its cell, and a pass over
+    // the records in reverse order moves each end down to its cell's start, giving every record
+    // of the range its place.
+    tbb::parallel_for(size_t(0), batches_.size(), [&](size_t c) {
+        Batch& b = batches_[c];
+        for (size_t k = 0; k < b.items.size(); ++k) b.hashes[k] = mapHash(b.hashes[k], tableSize);
+        b.places.resize(b.items.size());
+    });
     cellStarts_.assign(tableSize + 1, 0u);
-    for (Batch& b : batches_)
-        for (size_t k = 0; k < b.items.size(); ++k) b.hashes[k] = mapHash(b.hashes[k], tableSize), ++cellStarts_[b.hashes[k]];
-    for (size_t c = 1; c < tableSize; ++c) cellStarts_[c] += cellStarts_[c - 1];
-    cellStarts_[tableSize] = uint32_t(count);
-    for (size_t c = batches_.size(); c-- > 0;)
-        for (size_t k = batches_[c].items.size(); k-- > 0;) {
-            uint32_t& h = batches_[c].hashes[k];
-            h = --cellStarts_[h];
+    const size_t ranges = size_t(std::clamp(tbb::this_task_arena::max_concurrency(), 1, 64));
+    auto rangeBegin = [&](size_t r) { return uint32_t(tableSize * r / ranges); };
+    std::vector<size_t> rangeFirst(ranges + 1, 0);
+    tbb::parallel_for(size_t(0), ranges, [&](size_t r) {
+        const uint32_t lo = rangeBegin(r), hi = rangeBegin(r + 1);
+        size_t n = 0;
+        for (const Batch& b : batches_)
+            for (size_t k = 0; k < b.items.size(); ++k)
+                if (b.hashes[k] >= lo && b.hashes[k] < hi) ++cellStarts_[b.hashes[k]], ++n;
+        rangeFirst[r + 1] = n;
+    });
+    for (size_t r = 0; r < ranges; ++r) rangeFirst[r + 1] += rangeFirst[r];
+    tbb::parallel_for(size_t(0), ranges, [&](size_t r) {
+        const uint32_t lo = rangeBegin(r), hi = rangeBegin(r + 1);
+        uint32_t end = uint32_t(rangeFirst[r]);
+        for (uint32_t c = lo; c < hi; ++c) cellStarts_[c] = end += cellStarts_[c];
+        for (size_t c = batches_.size(); c-- > 0;) {
+            Batch& b = batches_[c];
+            for (size_t k = b.items.size(); k-- > 0;)
+                if (b.hashes[k] >= lo && b.hashes[k] < hi) b.places[k] = --cellStarts_[b.hashes[k]];
         }
+    });
+    cellStarts_[tableSize] = uint32_t(count);
     // In parallel: the records and positions to their places.
     photons_.resize(count);
     positions_.resize(count);
     tbb::parallel_for(size_t(0), batches_.size(), [&](size_t c) {
         const Batch& b = batches_[c];
         for (size_t k = 0; k < b.items.size(); ++k) {
-            photons_[b.hashes[k]] = b.items[k];
-            positions_[b.hashes[k]] = b.positions[k];
+            photons_[b.places[k]] = b.items[k];
+            positions_[b.places[k]] = b.positions[k];
         }
     });
 }

@@ -254,6 +254,7 @@ private:
         HugeArray<Photon> items;
         HugeArray<glm::vec4> positions;
         HugeArray<uint32_t> hashes;
+        HugeArray<uint32_t> places;  // (finish) each record's place in cell order
         size_t vertices = 0;  // light vertices seen, merge-usable or not
     };
     HugeVector<uint32_t> cellStarts_;
