@@ -213,7 +213,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     }
     // A few spheres are tested directly after Embree's meshes (direct_): with Embree they are a
     // second BVH, traversed by every ray, whose leaves call back into sphereHit.
-    direct_ = desc_.spheres.size() <= kDirectSpheres;
+    direct_ = !desc_.spheres.empty() && desc_.spheres.size() <= kDirectSpheres;
     if (direct_) embreeGeoms_ = geoms_.size();
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
         const SphereDesc& s = desc_.spheres[i];
