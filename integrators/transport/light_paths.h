@@ -4,7 +4,6 @@
 // vertices it can keep their MIS densities in a compact array, so that a merge can gather a light
 // subpath's pdfs without touching its vertices.
 #pragma once
-#include <span>
 #include <vector>
 #include "core/huge_pages.h"
 #include "integrators/transport/path.h"
@@ -25,7 +24,7 @@ public:
 
     // The paths of one chunk, where the walks write them: each walk goes straight into the chunk's
     // storage (no copy into a flat array afterwards: on SmallVCM's point-light box that copy and
-    // the first touch of its pages were 7% of BPT's time).
+    // the first touch of its pages were about 8% of BPT's and VCM's time).
     class Chunk {
     public:
         // Room for a walk of up to kMaxPathVertices vertices after the chunk's paths; commit(n)
@@ -110,7 +109,7 @@ struct Photon {
     double misLight = 0.0;         // lightPrefixSum of y[i-1]
 
     // The one initialiser: the photon of light vertex y = y[i] of light subpath pathIndex
-    // (i = y.depth >= 1) and its predecessor prev, written in place (the grid's scratch array is
+    // (i = y.depth >= 1) and its predecessor prev, written in place (the grid's batches are
     // reused across iterations).
     void set(uint32_t pathIndex, const PathVertex& y, const PathVertex& prev, bool hittable, double prevPrefix) {
         path = pathIndex;
