@@ -359,7 +359,7 @@ unsigned Scene::attachSphere(RTCScene scene, size_t i) {
 }
 
 RTCScene Scene::embreeScene() const {
-    if (!direct_ || spheres_.empty()) return scene_;
+    if (!direct_) return scene_;
     // Every shape in Embree (raybench's bare casts): the meshes again, and the spheres as user
     // geometry, with the same geometry ids as the renderer's.
     std::call_once(fullOnce_, [&] {

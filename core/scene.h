@@ -1,5 +1,6 @@
-// The renderable scene: Embree 3 geometry (triangle meshes and exact analytic spheres as user
-// geometry), materials, lights, camera. Ray offsets avoid self-intersection at any scene scale.
+// The renderable scene: Embree 3 geometry (triangle meshes, and exact analytic spheres as user
+// geometry or, up to kDirectSpheres of them, tested directly), materials, lights, camera. Ray
+// offsets avoid self-intersection at any scene scale.
 #pragma once
 #include <mutex>
 #include <embree3/rtcore.h>

@@ -154,7 +154,7 @@ private:
             const SolidAnglePdf pdf = ev.pdfFwd.value > 0.f ? ev.pdfFwd : bs.pdfFwd;
             e.init(reg_, VertexKind::Surface, &v, wo, len, v.beta * bs.weight, AreaPdf(0.f),
                    convertDensity(pdf, e, wo, sqr(len)));
-        } else if (!scene.infiniteLights().empty()) {
+        } else if (lightsAtInfinity) {
             detail::initAtInfinity(scene, reg_, e, v, ray, v.beta * bs.weight, bs.pdfFwd);
         } else {
             return;

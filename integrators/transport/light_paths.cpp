@@ -53,13 +53,8 @@ void HashGrid::finish() {
     cellStarts_.clear();
     photons_.resize(0);
     positions_.resize(0);
-    size_t nv = 0, count = 0;
-    std::vector<size_t> base(batches_.size() + 1, 0);  // a batch's first record in the count
-    for (size_t c = 0; c < batches_.size(); ++c) {
-        nv += batches_[c].vertices;
-        base[c + 1] = base[c] + batches_[c].items.size();
-    }
-    count = base.back();
+    size_t nv = 0, count = 0;  // light vertices, and records
+    for (const Batch& b : batches_) nv += b.vertices, count += b.items.size();
     if (count == 0) return;
     const size_t tableSize = std::max<size_t>(nv, 1024);
     // Counting sort by cell, in batch, path and vertex order within a cell: deterministic. The
