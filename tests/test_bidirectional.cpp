@@ -314,7 +314,7 @@ TEST_CASE("MIS: the path tracer's closed-form weights equal the plain sum", "[pt
 // pattern, hittability and density (zeros included), merge's precomputed sums, and every s.
 TEST_CASE("MIS: BPT's and VCM's own loops equal the plain sum bit for bit", "[bpt][vcm][mis]") {
     Rng rng(6, 9);
-    int checked = 0, nonTrivial = 0;
+    int checked = 0, nonTrivial = 0, scaledChecked = 0, mergesChecked = 0;
     for (int trial = 0; trial < 20000; ++trial) {
         const MisConfig cfg{TechniqueSet::Bidirectional, trial % 2 == 1, 1e-4f, 65536.f};
         PathPdfs p;
@@ -326,20 +326,35 @@ TEST_CASE("MIS: BPT's and VCM's own loops equal the plain sum bit for bit", "[bp
             p.delta[i] = rng.uniform() < 0.2f;
         }
         p.lightHittable = rng.uniform() < 0.7f;
-        if (cfg.merging) {  // a merge's precomputed sums (fast forms), sometimes
-            p.belowBase = rng.uniform() < 0.3f ? std::pow(10.0, 6.0 * rng.uniform() - 3.0) : -1.0;
-            p.aboveBase = rng.uniform() < 0.3f ? std::pow(10.0, 6.0 * rng.uniform() - 3.0) : -1.0;
+        // A regularised path's per-technique factors (regularizer.h (2)) on every third path: over
+        // 8 decades, 0 on a fifth of the techniques (they do not count).
+        p.perTechnique = trial % 3 == 2;
+        for (int k = 0; k <= p.n && p.perTechnique; ++k) {
+            p.connectionScale[k] = rng.uniform() < 0.2f ? 0.f : std::pow(10.f, 8.f * rng.uniform() - 4.f);
+            p.mergeScale[k] = rng.uniform() < 0.2f ? 0.f : std::pow(10.f, 8.f * rng.uniform() - 4.f);
         }
+        // A merge's precomputed sums (fast forms), sometimes; without merging too (BPT's loop is
+        // taken only without them: the plain sum adds them).
+        p.belowBase = rng.uniform() < 0.3f ? std::pow(10.0, 6.0 * rng.uniform() - 3.0) : -1.0;
+        p.aboveBase = rng.uniform() < 0.3f ? std::pow(10.0, 6.0 * rng.uniform() - 3.0) : -1.0;
         for (int s = 0; s < p.n; ++s) {
             const float fast = misWeight(p, s, cfg), plain = misWeightGeneral(p, s, cfg);
-            INFO("n " << p.n << " s " << s << " merging " << cfg.merging);
+            INFO("n " << p.n << " s " << s << " merging " << cfg.merging << " scaled " << p.perTechnique);
             REQUIRE(std::memcmp(&fast, &plain, sizeof(float)) == 0);
             ++checked;
             nonTrivial += plain > 0.f && plain < 1.f;
+            scaledChecked += p.perTechnique && plain > 0.f && plain < 1.f;
+            if (cfg.merging && s >= 1 && s + 1 < p.n) {  // the merge at x_s, from the same sum
+                const float fastMerge = misWeightMerge(p, s, cfg), plainMerge = misWeightMergeGeneral(p, s, cfg);
+                REQUIRE(std::memcmp(&fastMerge, &plainMerge, sizeof(float)) == 0);
+                mergesChecked += plainMerge > 0.f && plainMerge < 1.f;
+            }
         }
     }
     CHECK(checked > 100000);
     CHECK(nonTrivial > 50000);
+    CHECK(scaledChecked > 10000);
+    CHECK(mergesChecked > 10000);
 }
 
 // The path tracer's fast forms: its camera walk computes densities at emitter hits only

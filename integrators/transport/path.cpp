@@ -76,16 +76,28 @@ template <bool scaled>
 }
 
 // The plain sum for BPT's and VCM's technique set (TechniqueSet::Bidirectional, without and with
-// merging), unscaled: the loops of sumOverTechniques with what they test written out for that set,
-// the same operations in the same order, so the same double (tests/test_bidirectional.cpp compares
-// them bit for bit); about half the instructions (BPT on SmallVCM's point-light box: 80M instead of
-// 156M, 4 spp at 128^2). vm = mergeArea x lightPaths.
-template <bool merging>
+// merging): the loops of sumOverTechniques with what they test written out for that set, the same
+// operations in the same order, so the same double (tests/test_bidirectional.cpp compares them bit
+// for bit); about half the instructions (BPT on SmallVCM's point-light box: 80M instead of 156M, 4
+// spp at 128^2). vm = mergeArea x lightPaths. `scaled` as for sumOverTechniques: each technique's
+// density times its factor, a factor of 0 not counted (a regularised path's, regularizer.h (2)).
+template <bool merging, bool scaled>
 double sumBidirectional(const PathPdfs& pdfs, int base, double vm) {
     const int n = pdfs.n;
+    auto connectionScale = [&](int k) { return scaled ? double(pdfs.connectionScale[k]) : 1.0; };
+    auto mergeScale = [&](int k) { return scaled ? double(pdfs.mergeScale[k]) : 1.0; };
     // (0 <= k < n: every technique with a camera vertex; k = n, the pinhole, never counts)
-    auto validVC = [&](int k) { return k == 0 ? pdfs.lightHittable : !pdfs.delta[k - 1] && !pdfs.delta[k]; };
-    auto validVM = [&](int i) { return merging && i >= 1 && i <= n - 2 && !pdfs.delta[i]; };
+    auto validVC = [&](int k) {
+        if (scaled && !(pdfs.connectionScale[k] > 0.f)) return false;
+        return k == 0 ? pdfs.lightHittable : !pdfs.delta[k - 1] && !pdfs.delta[k];
+    };
+    auto validVM = [&](int i) {
+        return merging && i >= 1 && i <= n - 2 && !pdfs.delta[i] && (!scaled || pdfs.mergeScale[i] > 0.f);
+    };
+    auto addConnection = [&](double& sum, double r, int k) {
+        const double rk = r * connectionScale(k);
+        sum += rk * rk;
+    };
     double sum = 0.0, r = 1.0;
     // (up to k = n with merging only, where the camera side's precomputed sum may start)
     for (int k = base; k <= (merging ? n : n - 1); ++k) {
@@ -95,9 +107,9 @@ double sumBidirectional(const PathPdfs& pdfs, int base, double vm) {
             break;
         }
         if (k == n) break;
-        if (validVC(k)) sum += r * r;
+        if (validVC(k)) addConnection(sum, r, k);
         if (validVM(k)) {
-            const double q = r * vm * remapDensity(pdfs.fromLight[k]);
+            const double q = r * vm * remapDensity(pdfs.fromLight[k]) * mergeScale(k);
             sum += q * q;
         }
     }
@@ -105,9 +117,9 @@ double sumBidirectional(const PathPdfs& pdfs, int base, double vm) {
     r = 1.0;
     for (int k = base - 1; k >= 0; --k) {
         r *= remapDensity(pdfs.fromCamera[k]) / remapDensity(pdfs.fromLight[k]);
-        if (validVC(k)) sum += r * r;
+        if (validVC(k)) addConnection(sum, r, k);
         if (validVM(k)) {
-            const double q = r * vm * remapDensity(pdfs.fromLight[k]);
+            const double q = r * vm * remapDensity(pdfs.fromLight[k]) * mergeScale(k);
             sum += q * q;
         }
     }
@@ -119,18 +131,24 @@ double misSumGeneral(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     return pdfs.perTechnique ? sumOverTechniques<true>(pdfs, base, cfg) : sumOverTechniques<false>(pdfs, base, cfg);
 }
 
-// The plain sum, or the path tracer's closed form, or BPT's and VCM's loops (unscaled paths only).
+// The plain sum, or the path tracer's closed form (unscaled paths only), or BPT's and VCM's loops.
 double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
+    const bool noPrecomputed = pdfs.belowBase < 0.0 && pdfs.aboveBase < 0.0;
+    if (cfg.set == TechniqueSet::Bidirectional) {
+        const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
+        if (pdfs.perTechnique) {
+            if (cfg.merging) return sumBidirectional<true, true>(pdfs, base, vm);
+            if (noPrecomputed) return sumBidirectional<false, true>(pdfs, base, 0.0);
+            return sumOverTechniques<true>(pdfs, base, cfg);
+        }
+        if (cfg.merging) return sumBidirectional<true, false>(pdfs, base, vm);
+        if (noPrecomputed) return sumBidirectional<false, false>(pdfs, base, 0.0);
+    }
     if (pdfs.perTechnique) return sumOverTechniques<true>(pdfs, base, cfg);
-    if (cfg.set == TechniqueSet::PathTracer && !cfg.merging && base <= 1 && pdfs.belowBase < 0.0 &&
-        pdfs.aboveBase < 0.0) {
+    if (cfg.set == TechniqueSet::PathTracer && !cfg.merging && base <= 1 && noPrecomputed) {
         const detail::MisFraction f = detail::misSumPathTracer(pdfs, base);
         return f.den / f.num;
     }
-    if (cfg.set == TechniqueSet::Bidirectional && cfg.merging)
-        return sumBidirectional<true>(pdfs, base, double(cfg.mergeArea) * double(cfg.lightPaths));
-    if (cfg.set == TechniqueSet::Bidirectional && pdfs.belowBase < 0.0 && pdfs.aboveBase < 0.0)
-        return sumBidirectional<false>(pdfs, base, 0.0);
     return sumOverTechniques<false>(pdfs, base, cfg);
 }
 
@@ -178,11 +196,22 @@ float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg) {
     return connectionWeight(pdfs, s, misSum(pdfs, s, cfg));
 }
 
-float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
+namespace {
+
+float mergeWeight(const PathPdfs& pdfs, int i, const MisConfig& cfg, double sum) {
     double own = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(pdfs.fromLight[i]);
     if (pdfs.perTechnique) own *= double(pdfs.mergeScale[i]);
-    double sum = misSum(pdfs, i, cfg);
     return sum > 0.0 ? float(own * own / sum) : 0.f;
+}
+
+}  // namespace
+
+float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
+    return mergeWeight(pdfs, i, cfg, misSum(pdfs, i, cfg));
+}
+
+float misWeightMergeGeneral(const PathPdfs& pdfs, int i, const MisConfig& cfg) {
+    return mergeWeight(pdfs, i, cfg, misSumGeneral(pdfs, i, cfg));
 }
 
 bool samplableUnregularised(const Technique& tech, TechniqueSet set, bool merging) {

@@ -248,9 +248,11 @@ float misWeight(const PathPdfs& pdfs, int s, const MisConfig& cfg);
 float misWeightMerge(const PathPdfs& pdfs, int i, const MisConfig& cfg);
 // (Inline, path_inline.h: the path tracer's closed form without a call.)
 inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set);
-// misWeight with the plain sum over techniques always (misWeight takes a closed form for the path
-// tracer's two techniques); for the tests that check the fast forms against the plain one.
+// misWeight and misWeightMerge with the plain sum over techniques always (they take a closed form
+// for the path tracer's two techniques and loops for BPT's and VCM's); for the tests that check the
+// fast forms against the plain one.
 float misWeightGeneral(const PathPdfs& pdfs, int s, const MisConfig& cfg);
+float misWeightMergeGeneral(const PathPdfs& pdfs, int i, const MisConfig& cfg);
 
 // The highest index of a density (fromLight, fromCamera) the MIS sum of `cfg` can read (a
 // regulariser with per-technique densities makes every routine read all of them); it reads
