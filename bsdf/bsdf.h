@@ -199,6 +199,11 @@ public:
     // constructor: JG19's walks read them at every vertex (integrators/transport/jg19.h (2), (4)).
     float plainBound() const { return plainBound_; }
     float smoothestBound() const { return smoothestBound_; }
+    // The largest bound under which a request (a bound alone) changes the BSDF, 0 where none does
+    // (JG19's diffusion heuristic, jg19.h (4)): plainBound for a glossy lobe (any bound below its
+    // own makes it rougher), smoothestBound for a delta one, 0 for a lobe no request changes (a
+    // diffuse one).
+    float changeableBound() const { return changeableBound_; }
 
 protected:
     // The last statement of each model's constructor (valueBound is then the model's own).
@@ -208,10 +213,12 @@ protected:
         smoothest.reg.minAlpha = {kMinAlpha, kMinAlpha};
         const float c = valueBound(smoothest);
         smoothestBound_ = std::isfinite(c) ? c : 0.f;
+        const uint32_t f = flags();
+        changeableBound_ = (f & kGlossy) ? plainBound_ : (f & kDelta) ? smoothestBound_ : 0.f;
     }
     const Lambert* lambert_ = nullptr;
     float continuation_ = 1.f;  // set by each model's constructor
-    float plainBound_ = 0.f, smoothestBound_ = 0.f;
+    float plainBound_ = 0.f, smoothestBound_ = 0.f, changeableBound_ = 0.f;
 };
 
 // min(1, max(0, the largest channel of c)): the continuation probability of a lobe scaled by c.

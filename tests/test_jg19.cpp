@@ -848,6 +848,38 @@ TEST_CASE("JG19 diffusion heuristic: spreads along the camera walk and the bound
     CHECK(plainNee.bound[0] == 30.f);
 }
 
+TEST_CASE("JG19 diffusion heuristic: no request changes a diffuse vertex whatever its bound", "[jg19][diffusion]") {
+    // L D D E on a line, white Lambert (f = 1 / pi = 0.318) at z = 1 and 3, tau 0.2 (fixed): along
+    // the camera walk tau' = tau / sigma falls below f at the second diffuse vertex (sigma > 0.63),
+    // and on a light walk the loosest bound (tau / 100) is below f everywhere. No request changes a
+    // Lambert lobe, so no vertex counts as changeable (SubpathState::changeable, the gate of
+    // select's loop) and no technique is regularised: with a diffuse vertex's ceiling taken as its
+    // own rho_bar, the loop chose the white vertex as if a bound could lower it.
+    // The same with Mitsuba's two-sided adapter around it (not the inline Lambert path).
+    Scene scene(mixedScene(16));
+    const BxdfPtr white = GENERATE(makeDiffuse(Color(1.f)), makeTwoSided(makeDiffuse(Color(1.f))));
+    INFO(white->name());
+    Light point;
+    point.type = LightType::Point;
+    HandPath h = HandPath::onAxis(point, {{1.f, white.get()}, {3.f, white.get()}});
+    for (TechniqueSet set : {TechniqueSet::PathTracer, TechniqueSet::Bidirectional}) {
+        const reg::Jg19 jg = fixedTau(0.2, scene, MisConfig{set}, true);
+        for (int s = 1; s <= 3; ++s) {
+            if (!allowsTechnique(set, s, 4 - s)) continue;
+            Technique tech = h.technique(jg, s);
+            INFO("set " << int(set) << " s " << s);
+            for (int k = 0; k < s; ++k) CHECK(h.y[k].regState.changeable == 0.f);
+            for (int k = 0; k < 4 - s; ++k) CHECK(h.z[k].regState.changeable == 0.f);
+            CHECK(jg.selectByLoop(tech));
+            CHECK(tech.regularised[0] == -1);
+            CHECK(tech.regularised[1] == -1);
+        }
+        // (the premise: tau' at the diffuse vertex next to the light is below its rho_bar)
+        h.technique(jg, 1);
+        CHECK(0.2 / double(h.z[2].regState.spread) < 1.0 / std::numbers::pi);
+    }
+}
+
 TEST_CASE("singularPath: the paths no unregularised technique can produce", "[jg19][strategies]") {
     // A delta light (point, spot, directional), the pinhole, and only smooth vertices between
     // them: L S S E, for every split of the path into a connection (s, t). One rough or diffuse

@@ -66,7 +66,8 @@ void Jg19::surfaceBounds(const PathVertex& v, float& plain, float& regularised) 
         return;
     }
     if (const Lambert* l = v.bxdf->lambert()) {
-        plain = regularised = maxComp(l->f);
+        plain = maxComp(l->f);
+        regularised = diffusion() ? 0.f : plain;  // ((4): no request changes it)
         return;
     }
     plain = v.bxdf->plainBound();
@@ -76,9 +77,8 @@ void Jg19::surfaceBounds(const PathVertex& v, float& plain, float& regularised) 
     }
     // (4): the ceiling. A rough lobe changes under any bound below its own; a delta one under a
     // bound that makes it rough at least at kMinAlpha (none: an index-matched dielectric), or as a
-    // cone (5) under every finite bound.
-    if (v.deltaBsdf) regularised = cone() ? kInf : v.bxdf->smoothestBound();
-    else regularised = plain;
+    // cone (5) under every finite bound; a diffuse one under none (Bxdf::changeableBound).
+    regularised = v.deltaBsdf && cone() ? kInf : v.bxdf->changeableBound();
 }
 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {
