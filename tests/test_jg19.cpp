@@ -880,6 +880,46 @@ TEST_CASE("JG19 diffusion heuristic: no request changes a diffuse vertex whateve
     }
 }
 
+TEST_CASE("JG19's walks mark smooth vertices made rough by the loosest request as the BSDF says", "[jg19]") {
+    // extend() reads roughenedByRequest for the scene's smooth BSDFs from a table beginIteration
+    // fills; a policy whose iteration was set without the scene (setIteration) asks each BSDF
+    // (deltaUnder). (The consistent schedule: tau_n grows with n.) Both must mark every vertex alike, with bounds that leave the glass and the
+    // mirror smooth and bounds that make them rough, with and without the diffusion heuristic.
+    Scene scene(mixedSceneWithPointInGlass(16));
+    const MisConfig cfg{TechniqueSet::Bidirectional};
+    int smoothVertices = 0, roughened = 0;
+    for (double tau0 : {30.0, 1e5, 1e9, 1e12, 1e20, 1e30})
+        for (bool diffusion : {false, true})
+            for (uint64_t n : {uint64_t(1), uint64_t(1000)}) {
+                reg::Jg19Settings js;
+                js.tau0 = tau0;
+                js.diffusion = diffusion;
+                reg::Jg19 table(js);
+                table.beginIteration(n, scene, cfg);
+                // (its table first filled for another iteration: setIteration must drop it)
+                reg::Jg19 asked(js);
+                asked.beginIteration(uint64_t(1e12), scene, cfg);
+                asked.setIteration(n);
+                WalkStats ws;
+                std::array<PathVertex, kMaxPathVertices> a, b;
+                for (uint64_t i = 0; i < 300; ++i) {
+                    Rng r1(i, 3), r2(i, 3);
+                    const int na = lightWalk(scene, table, r1, 8, 100, a.data(), ws);
+                    const int nb = lightWalk(scene, asked, r2, 8, 100, b.data(), ws);
+                    REQUIRE(na == nb);
+                    for (int k = 0; k < na; ++k) {
+                        INFO("tau0 " << tau0 << " diffusion " << diffusion << " n " << n << " walk " << i << " vertex " << k);
+                        CHECK(a[k].roughenedByRequest == b[k].roughenedByRequest);
+                        CHECK(a[k].regState.changeable == b[k].regState.changeable);
+                        smoothVertices += a[k].deltaBsdf && a[k].kind == VertexKind::Surface;
+                        roughened += a[k].roughenedByRequest;
+                    }
+                }
+            }
+    CHECK(roughened > 100);
+    CHECK(smoothVertices - roughened > 100);
+}
+
 TEST_CASE("singularPath: the paths no unregularised technique can produce", "[jg19][strategies]") {
     // A delta light (point, spot, directional), the pinhole, and only smooth vertices between
     // them: L S S E, for every split of the path into a connection (s, t). One rough or diffuse

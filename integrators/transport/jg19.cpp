@@ -24,6 +24,7 @@ void Jg19::setIteration(uint64_t n) {
 }
 
 void Jg19::setLimits() {
+    smooth_.clear();
     loosest_ = radiance_;
     const double tau = double(radiance_.reg.tau);
     tauSqExit_ = float(tau * tau * (1.0 - kExitMargin));
@@ -47,6 +48,8 @@ void Jg19::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) 
     set_ = cfg.set;
     merging_ = cfg.merging;
     mergeDensity_ = double(cfg.mergeArea) * double(cfg.lightPaths);
+    for (const BxdfPtr& b : scene.desc().bsdfs)
+        if (b && b->isDelta()) smooth_.push_back({b.get(), !b->deltaUnder(loosest_)});
 }
 
 float Jg19::lightBound(const Light& light) {

@@ -101,6 +101,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 #include "bsdf/cone_mollifier.h"
 #include "integrators/transport/path.h"
 
@@ -208,8 +209,8 @@ public:
         }
     }
     void extend(PathVertex& v, PathVertex& prev) const {
-        v.roughenedByRequest = v.deltaBsdf && v.kind == VertexKind::Surface && !v.infinite && v.bxdf &&
-                               !v.bxdf->deltaUnder(loosest_);
+        v.roughenedByRequest =
+            v.deltaBsdf && v.kind == VertexKind::Surface && !v.infinite && v.bxdf && roughenedByLoosest(*v.bxdf);
         SubpathState& st = v.regState;
         st.ratio = 1.f;
         if (settings_.quality) {
@@ -301,7 +302,20 @@ private:
         return merging_ &&
                std::min(a.regState.mergeMin, b.regState.mergeMin) * dPath2 < tauSqExit_ * float(mergeDensity_);
     }
-    void setLimits();  // loosest_ from tau_n
+    void setLimits();  // loosest_ from tau_n (and smooth_ cleared: it was for the previous one)
+    // Whether the loosest request makes the smooth BSDF b rough (PathVertex::roughenedByRequest):
+    // from smooth_ for the scene's smooth BSDFs (beginIteration), else b's own answer, a virtual
+    // call of about 100 instructions that extend() would otherwise make at every smooth vertex.
+    bool roughenedByLoosest(const Bxdf& b) const {
+        for (const SmoothBsdf& e : smooth_)
+            if (e.bxdf == &b) return e.roughened;
+        return !b.deltaUnder(loosest_);
+    }
+    struct SmoothBsdf {
+        const Bxdf* bxdf;
+        bool roughened;
+    };
+    std::vector<SmoothBsdf> smooth_;
     // tau' = tau_n / sigma (Eq. 19).
     float boundAt(double spread) const {
         if (std::isnan(spread)) return float(spread);  // (7): select() refuses it, not tau_n in its place
