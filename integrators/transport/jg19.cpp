@@ -32,15 +32,6 @@ void Jg19::setLimits() {
     if (cone()) loosest_.reg.cone = coneForBound(loosest_.reg.tau);  // (5)
 }
 
-Diffusion Diffusion::next(double rhoBar, double h, double d) const {
-    Diffusion out = *this;
-    if (rhoBar > 0.0 && std::isfinite(rhoBar)) out.spread += 1.0 / std::sqrt(2.0 * std::numbers::pi * rhoBar);
-    if (std::isfinite(h)) out.spread += footprint * h;
-    out.spread = std::min(out.spread, kMaxSpread);
-    if (std::isfinite(d)) out.footprint += out.spread * d;
-    return out;
-}
-
 void Jg19::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) {
     setIteration(n);
     const Camera& cam = scene.camera();
@@ -61,27 +52,6 @@ float Jg19::lightBound(const Light& light) {
         case LightType::Directional: return kInvPi;  // (a delta direction that NEE samples exactly: as an area light)
     }
     return kInvPi;
-}
-
-void Jg19::surfaceBounds(const PathVertex& v, float& plain, float& regularised) const {
-    if (!v.bxdf || v.infinite) {
-        plain = regularised = 0.f;
-        return;
-    }
-    if (const Lambert* l = v.bxdf->lambert()) {
-        plain = maxComp(l->f);
-        regularised = diffusion() ? 0.f : plain;  // ((4): no request changes it)
-        return;
-    }
-    plain = v.bxdf->plainBound();
-    if (!diffusion()) {
-        regularised = v.bxdf->valueBound(radiance_);
-        return;
-    }
-    // (4): the ceiling. A rough lobe changes under any bound below its own; a delta one under a
-    // bound that makes it rough at least at kMinAlpha (none: an index-matched dielectric), or as a
-    // cone (5) under every finite bound; a diffuse one under none (Bxdf::changeableBound).
-    regularised = v.deltaBsdf && cone() ? kInf : v.bxdf->changeableBound();
 }
 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {

@@ -101,6 +101,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <vector>
 #include "bsdf/cone_mollifier.h"
 #include "integrators/transport/path.h"
@@ -130,7 +131,15 @@ struct Diffusion {
     // loosest bound a vertex can get, tau / kMaxSpread, is known before any path (connectible).
     static constexpr double kMaxSpread = 100.0;
     double spread = 0.0, footprint = 0.0;  // sigma (radians), F (length)
-    Diffusion next(double rhoBar, double h, double d) const;
+    // (inline: the walks take a step per camera vertex, select's loop one per light vertex)
+    Diffusion next(double rhoBar, double h, double d) const {
+        Diffusion out = *this;
+        if (rhoBar > 0.0 && std::isfinite(rhoBar)) out.spread += 1.0 / std::sqrt(2.0 * std::numbers::pi * rhoBar);
+        if (std::isfinite(h)) out.spread += footprint * h;
+        out.spread = std::min(out.spread, kMaxSpread);
+        if (std::isfinite(d)) out.footprint += out.spread * d;
+        return out;
+    }
 };
 
 class Jg19 {
@@ -268,7 +277,26 @@ public:
         if (!(std::isfinite(d) && d > 0.f)) return kInf;
         return float(double(a) * double(b) / (double(d) * double(d)));
     }
-    void surfaceBounds(const PathVertex& v, float& plain, float& regularised) const;
+    void surfaceBounds(const PathVertex& v, float& plain, float& regularised) const {
+        if (!v.bxdf || v.infinite) {
+            plain = regularised = 0.f;
+            return;
+        }
+        if (const Lambert* l = v.bxdf->lambert()) {
+            plain = maxComp(l->f);
+            regularised = diffusion() ? 0.f : plain;  // ((4): no request changes it)
+            return;
+        }
+        plain = v.bxdf->plainBound();
+        if (!diffusion()) {
+            regularised = v.bxdf->valueBound(radiance_);
+            return;
+        }
+        // (4): the ceiling. A rough lobe changes under any bound below its own; a delta one under
+        // a bound that makes it rough at least at kMinAlpha (none: an index-matched dielectric), or
+        // as a cone (5) under every finite bound; a diffuse one under none (Bxdf::changeableBound).
+        regularised = v.deltaBsdf && cone() ? kInf : v.bxdf->changeableBound();
+    }
 
 private:
     Jg19Settings settings_;
