@@ -135,14 +135,14 @@ double misSumGeneral(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
 double misSum(const PathPdfs& pdfs, int base, const MisConfig& cfg) {
     const bool noPrecomputed = pdfs.belowBase < 0.0 && pdfs.aboveBase < 0.0;
     if (cfg.set == TechniqueSet::Bidirectional) {
-        const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
-        if (pdfs.perTechnique) {
-            if (cfg.merging) return sumBidirectional<true, true>(pdfs, base, vm);
-            if (noPrecomputed) return sumBidirectional<false, true>(pdfs, base, 0.0);
-            return sumOverTechniques<true>(pdfs, base, cfg);
+        if (cfg.merging) {
+            const double vm = double(cfg.mergeArea) * double(cfg.lightPaths);
+            return pdfs.perTechnique ? sumBidirectional<true, true>(pdfs, base, vm)
+                                     : sumBidirectional<true, false>(pdfs, base, vm);
         }
-        if (cfg.merging) return sumBidirectional<true, false>(pdfs, base, vm);
-        if (noPrecomputed) return sumBidirectional<false, false>(pdfs, base, 0.0);
+        if (noPrecomputed)
+            return pdfs.perTechnique ? sumBidirectional<false, true>(pdfs, base, 0.0)
+                                     : sumBidirectional<false, false>(pdfs, base, 0.0);
     }
     if (pdfs.perTechnique) return sumOverTechniques<true>(pdfs, base, cfg);
     if (cfg.set == TechniqueSet::PathTracer && !cfg.merging && base <= 1 && noPrecomputed) {
