@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# What a regularised sample costs in time: the render loop's seconds (--stats-json "seconds": no
+# scene load, no image write) of PT, BPT and VCM with each regulariser over those of the same
+# integrator without one, per scene, on the same scenes and configurations as scripts/cost.sh
+# (which counts instructions). The machine may be shared, so the configurations run in rounds:
+# each round renders none, jg19-nothing, jg19, opsr and kd13 one after the other, a ratio is taken
+# within its round, and the table gives the median over the rounds (min-max in OUT/rounds.csv).
+#   bash scripts/cost-time.sh [OUT] [ROUNDS]   (default out/cost-time, 7 rounds)
+# 128x128, 2 threads, seed 1; 48 spp for PT, 16 for BPT and VCM (0.1-1 s a render). Writes
+# OUT/rounds.csv (scene, integrator, configuration, round, seconds, ratio to that round's none)
+# and OUT/cost-time.md. About 10 minutes with 7 rounds.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out="${1:-out/cost-time}"
+rounds="${2:-7}"
+[ -x build/tools/render ] || { echo "cost-time.sh: build/tools/render not found (bash scripts/setup.sh build)" >&2; exit 1; }
+mkdir -p "$out/runs"
+
+scenes=(cornell-box cornell-box-ggx cornell-box-glass-sphere cornell-box-mirror-sphere cornell-box-point-in-glass
+  hard/amber hard/caustic-mirror hard/caustic-point-glass hard/caustic-roughness hard/glass-ball-body
+  hard/glossy-chains hard/glossy-ring hard/specular-point-view)
+configs=(none jg19-nothing jg19 opsr kd13)
+options() {
+  case "$1" in
+    none) echo "" ;;
+    jg19-nothing) echo "--reg jg19 --reg-tau 1e30" ;;
+    *) echo "--reg $1" ;;
+  esac
+}
+sppOf() { [ "$1" = pt ] && echo 48 || echo 16; }
+seconds() { sed -n 's/.*"seconds": \([0-9.e+-]*\).*/\1/p' "$1"; }
+
+echo "scene,integrator,configuration,round,seconds,ratio" > "$out/rounds.csv"
+for sc in "${scenes[@]}"; do
+  for i in pt bpt vcm; do
+    for ((r = 1; r <= rounds; ++r)); do
+      base=""
+      for c in "${configs[@]}"; do
+        json="$out/runs/run.json"
+        # shellcheck disable=SC2046
+        build/tools/render "scenes/$sc.xml" -D res=128 --spp "$(sppOf "$i")" --threads 2 --seed 1 --integrator "$i" \
+          $(options "$c") -q -o "$out/runs/run.exr" --stats-json "$json" >/dev/null 2>&1 ||
+          { echo "cost-time.sh: failed: $sc $i $c" >&2; exit 1; }
+        s=$(seconds "$json")
+        [ "$c" = none ] && base="$s"
+        echo "$sc,$i,$c,$r,$s,$(awk -v a="$s" -v b="$base" 'BEGIN { printf "%.4f", a / b }')" >> "$out/rounds.csv"
+      done
+    done
+  done
+done
+rm -f "$out"/runs/run.*
+
+awk -F, -v configs="${configs[*]}" '
+  NR == 1 { next }
+  { key = $1 "," $2 "," $3; v[key, ++cnt[key]] = $6; if (!($1 in seen)) { seen[$1] = 1; order[++ns] = $1 } }
+  function median(key,   n, i, j, t, a) {
+    n = cnt[key]
+    for (i = 1; i <= n; ++i) a[i] = v[key, i]
+    for (i = 2; i <= n; ++i) for (j = i; j > 1 && a[j - 1] > a[j]; --j) { t = a[j]; a[j] = a[j - 1]; a[j - 1] = t }
+    return n % 2 ? a[(n + 1) / 2] : (a[n / 2] + a[n / 2 + 1]) / 2
+  }
+  END {
+    nc = split(configs, c, " ")
+    printf "Render-loop seconds per sample over those of the same integrator without a regulariser (128x128, 2 threads, seed 1; PT 48 spp, BPT and VCM 16; the median over rounds of the ratio within a round).\n\n"
+    printf "| scene |"
+    split("PT BPT VCM", label, " ")
+    for (ii = 1; ii <= 3; ++ii) for (k = 2; k <= nc; ++k) printf " %s %s |", label[ii], c[k]
+    printf "\n|---|"
+    for (k = 1; k <= 3 * (nc - 1); ++k) printf "---:|"
+    printf "\n"
+    split("pt bpt vcm", integ, " ")
+    for (s = 1; s <= ns; ++s) {
+      printf "| %s |", order[s]
+      for (ii = 1; ii <= 3; ++ii) for (k = 2; k <= nc; ++k) printf " %.2f |", median(order[s] "," integ[ii] "," c[k])
+      printf "\n"
+    }
+  }' "$out/rounds.csv" > "$out/cost-time.md"
+cat "$out/cost-time.md"
