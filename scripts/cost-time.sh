@@ -50,29 +50,18 @@ for sc in "${scenes[@]}"; do
 done
 rm -f "$out"/runs/run.*
 
-awk -F, -v configs="${configs[*]}" '
-  NR == 1 { next }
-  { key = $1 "," $2 "," $3; v[key, ++cnt[key]] = $6; if (!($1 in seen)) { seen[$1] = 1; order[++ns] = $1 } }
+# The median ratio over the rounds of each configuration, as the table.
+awk -F, 'NR > 1 && $3 != "none" {
+    key = $1 "," $2 "," $3; v[key, ++cnt[key]] = $6; if (!(key in seen)) { seen[key] = 1; order[++nk] = key }
+  }
   function median(key,   n, i, j, t, a) {
     n = cnt[key]
     for (i = 1; i <= n; ++i) a[i] = v[key, i]
     for (i = 2; i <= n; ++i) for (j = i; j > 1 && a[j - 1] > a[j]; --j) { t = a[j]; a[j] = a[j - 1]; a[j - 1] = t }
     return n % 2 ? a[(n + 1) / 2] : (a[n / 2] + a[n / 2 + 1]) / 2
   }
-  END {
-    nc = split(configs, c, " ")
-    printf "Render-loop seconds per sample over those of the same integrator without a regulariser (128x128, 2 threads, seed 1; PT 48 spp, BPT and VCM 16; the median over rounds of the ratio within a round).\n\n"
-    printf "| scene |"
-    split("PT BPT VCM", label, " ")
-    for (ii = 1; ii <= 3; ++ii) for (k = 2; k <= nc; ++k) printf " %s %s |", label[ii], c[k]
-    printf "\n|---|"
-    for (k = 1; k <= 3 * (nc - 1); ++k) printf "---:|"
-    printf "\n"
-    split("pt bpt vcm", integ, " ")
-    for (s = 1; s <= ns; ++s) {
-      printf "| %s |", order[s]
-      for (ii = 1; ii <= 3; ++ii) for (k = 2; k <= nc; ++k) printf " %.2f |", median(order[s] "," integ[ii] "," c[k])
-      printf "\n"
-    }
-  }' "$out/rounds.csv" > "$out/cost-time.md"
+  END { for (i = 1; i <= nk; ++i) print order[i] "," median(order[i]) }' "$out/rounds.csv" |
+  awk -F, -v configs="${configs[*]:1}" -f scripts/cost-table.awk \
+    -v title="Render-loop seconds per sample over those of the same integrator without a regulariser (128x128, 2 threads, seed 1; PT 48 spp, BPT and VCM 16; the median over rounds of the ratio within a round)." \
+    > "$out/cost-time.md"
 cat "$out/cost-time.md"

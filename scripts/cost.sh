@@ -52,26 +52,12 @@ for sc in "${scenes[@]}"; do
 done
 rm -f "$out"/runs/*.cg "$out"/runs/*.exr "$out"/runs/*.png
 
-awk -F, -v configs="${configs[*]}" '
-  NR == 1 { next }
-  { n[$1 "," $2 "," $3] = $5 - $4; if (!($1 in seen)) { seen[$1] = 1; order[++ns] = $1 } }
-  END {
-    nc = split(configs, c, " ")
-    printf "Instructions per sample over those of the same integrator without a regulariser (48x48, 1 thread, seed 1; renders of 10 and 2 spp, their difference).\n\n"
-    printf "| scene |"
-    split("PT BPT VCM", label, " ")
-    for (ii = 1; ii <= 3; ++ii) for (k = 2; k <= nc; ++k) printf " %s %s |", label[ii], c[k]
-    printf "\n|---|"
-    for (k = 1; k <= 3 * (nc - 1); ++k) printf "---:|"
-    printf "\n"
-    split("pt bpt vcm", integ, " ")
-    for (s = 1; s <= ns; ++s) {
-      printf "| %s |", order[s]
-      for (ii = 1; ii <= 3; ++ii) {
-        base = n[order[s] "," integ[ii] ",none"]
-        for (k = 2; k <= nc; ++k) printf " %.2f |", n[order[s] "," integ[ii] "," c[k]] / base
-      }
-      printf "\n"
-    }
-  }' "$out/totals.csv" > "$out/cost.md"
+# The ratios (each configuration's count over none's), as the table.
+awk -F, 'NR == 1 { next }
+  { n[$1 "," $2 "," $3] = $5 - $4; key[++nk] = $1 "," $2 "," $3; base[$1 "," $2 "," $3] = $1 "," $2 ",none" }
+  END { for (i = 1; i <= nk; ++i) if (key[i] !~ /,none$/) print key[i] "," n[key[i]] / n[base[key[i]]] }' \
+  "$out/totals.csv" |
+  awk -F, -v configs="${configs[*]:1}" -f scripts/cost-table.awk \
+    -v title="Instructions per sample over those of the same integrator without a regulariser (48x48, 1 thread, seed 1; renders of 10 and 2 spp, their difference)." \
+    > "$out/cost.md"
 cat "$out/cost.md"
