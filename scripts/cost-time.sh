@@ -16,17 +16,8 @@ rounds="${2:-7}"
 [ -x build/tools/render ] || { echo "cost-time.sh: build/tools/render not found (bash scripts/setup.sh build)" >&2; exit 1; }
 mkdir -p "$out/runs"
 
-scenes=(cornell-box cornell-box-ggx cornell-box-glass-sphere cornell-box-mirror-sphere cornell-box-point-in-glass
-  hard/amber hard/caustic-mirror hard/caustic-point-glass hard/caustic-roughness hard/glass-ball-body
-  hard/glossy-chains hard/glossy-ring hard/specular-point-view)
-configs=(none jg19-nothing jg19 opsr kd13)
-options() {
-  case "$1" in
-    none) echo "" ;;
-    jg19-nothing) echo "--reg jg19 --reg-tau 1e30" ;;
-    *) echo "--reg $1" ;;
-  esac
-}
+# shellcheck source=scripts/cost-common.sh
+source scripts/cost-common.sh
 sppOf() { [ "$1" = pt ] && echo 48 || echo 16; }
 seconds() { sed -n 's/.*"seconds": \([0-9.e+-]*\).*/\1/p' "$1"; }
 

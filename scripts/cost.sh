@@ -18,16 +18,8 @@ command -v valgrind >/dev/null || { echo "cost.sh: valgrind not found (bash scri
 [ -x build/tools/render ] || { echo "cost.sh: build/tools/render not found (bash scripts/setup.sh build)" >&2; exit 1; }
 mkdir -p "$out/runs"
 
-scenes=(cornell-box cornell-box-ggx cornell-box-glass-sphere cornell-box-mirror-sphere cornell-box-point-in-glass
-  hard/amber hard/caustic-mirror hard/caustic-point-glass hard/caustic-roughness hard/glass-ball-body
-  hard/glossy-chains hard/glossy-ring hard/specular-point-view)
-configs=(none jg19-nothing jg19 opsr kd13)
-options() {
-  case "$1" in
-    jg19-nothing) echo "--reg jg19 --reg-tau 1e30" ;;
-    *) echo "--reg $1" ;;
-  esac
-}
+# shellcheck source=scripts/cost-common.sh
+source scripts/cost-common.sh
 
 for sc in "${scenes[@]}"; do
   for i in pt bpt vcm; do
