@@ -6,6 +6,9 @@
 #include <catch2/catch.hpp>
 #include <array>
 #include <cmath>
+#include <vector>
+#include "bsdf/cone_mollifier.h"
+#include "core/sampling.h"
 #include "integrators/transport/path_templates.h"
 #include "scene_builders.h"
 
@@ -178,6 +181,73 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
     INFO(merges << " merges, " << mergesChanged << " changed");
     CHECK(merges > 200);
     CHECK(mergesChanged > 20);  // merges on the GGX panel and sphere
+}
+
+TEST_CASE("regulariser seam: a smooth connection end evaluates as the general form does", "[regularizer]") {
+    // evalAtConnection skips a smooth BSDF's plain evaluation (0 for every pair) and the question
+    // whether the request leaves it a delta (its evaluation says so). Against the general form
+    // (the plain evaluation, requestCanChange, the request's evaluation), bit for bit: the value,
+    // both densities, rho_hat / rho and the regularised density, for a mirror, glass (eta 1.5 and
+    // its inverse) and index-matched glass, two-sided too, under no request, bounds that leave the
+    // lobe a delta or make it rough, and cones; random directions on both sides.
+    const std::vector<BxdfPtr> smooth{makeConductor(Color(0.2f, 0.9f, 1.1f), Color(3.f, 2.5f, 2.f), Color(1.f)),
+                                      makeDielectric(1.5f), makeDielectric(1.f / 1.5f), makeDielectric(1.f),
+                                      makeTwoSided(makeConductor(Color(1.5f), Color(3.f), Color(0.8f)))};
+    std::vector<BsdfContext> contexts;
+    for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
+        contexts.emplace_back(mode);
+        for (float tau : {1e12f, 1e6f, 300.f, 30.f, 1.f}) {
+            BsdfContext c(mode);
+            c.reg.tau = tau;
+            contexts.push_back(c);
+            contexts.push_back(c.valueOnlyCopy());
+            c.reg.cone = coneForBound(tau);
+            contexts.push_back(c);
+        }
+    }
+    Rng rng(3, 11);
+    int checked = 0, nonZero = 0, leftDelta = 0;
+    for (const BxdfPtr& b : smooth)
+        for (int i = 0; i < 400; ++i) {
+            PathVertex v;
+            v.kind = VertexKind::Surface;
+            v.p = Vec3(0.f);
+            v.ng = Vec3(0.f, 0.f, 1.f);
+            v.shading = Frame(v.ng);
+            v.bxdf = b.get();
+            v.deltaBsdf = b->isDelta();
+            REQUIRE(v.deltaBsdf);
+            v.wo = sampleUniformSphere(rng.uniform2());
+            // wi: near the mirror or refracted direction half of the time (where a rough lobe is large)
+            Vec3 wi = sampleUniformSphere(rng.uniform2());
+            if (i % 2) wi = glm::normalize(Vec3(-v.wo.x, -v.wo.y, (i % 4 == 1 ? 1.f : -1.f) * v.wo.z) + 0.05f * wi);
+            for (const BsdfContext& ctx : contexts) {
+                float ratio = 1.f, pdf = 0.f, ratioRef = 1.f, pdfRef = 0.f;
+                const BsdfEval e = detail::evalAtConnection(v, wi, ctx, ratio, pdf);
+                // the general form
+                BsdfEval r = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
+                if (detail::requestCanChange(v, ctx)) {
+                    const Color plain = r.f;
+                    const BsdfEval hat = v.bsdf().eval(v.wo, wi, ctx);
+                    r.f = hat.f;
+                    pdfRef = hat.pdfFwd.value;
+                    ratioRef = detail::regularisedRatio(r.f, plain);
+                } else {
+                    leftDelta += !ctx.reg.empty();
+                }
+                detail::applyContinuation(r, *v.bxdf);
+                CHECK(e.f == r.f);
+                CHECK(e.pdfFwd.value == r.pdfFwd.value);
+                CHECK(e.pdfRev.value == r.pdfRev.value);
+                CHECK((ratio == ratioRef || (std::isnan(ratio) && std::isnan(ratioRef))));
+                CHECK(pdf == pdfRef);
+                ++checked;
+                nonZero += !isBlack(e.f);
+            }
+        }
+    INFO(checked << " evaluations, " << nonZero << " non-zero, " << leftDelta << " left a delta by the request");
+    CHECK(nonZero > 2000);
+    CHECK(leftDelta > 1000);
 }
 
 TEST_CASE("regulariser seam: per-technique densities enter every technique's MIS weight", "[regularizer][mis]") {
