@@ -46,8 +46,8 @@ rm -f "$out"/runs/*.cg "$out"/runs/*.exr "$out"/runs/*.png
 
 # The ratios (each configuration's count over none's), as the table.
 awk -F, 'NR == 1 { next }
-  { n[$1 "," $2 "," $3] = $5 - $4; key[++nk] = $1 "," $2 "," $3; base[$1 "," $2 "," $3] = $1 "," $2 ",none" }
-  END { for (i = 1; i <= nk; ++i) if (key[i] !~ /,none$/) print key[i] "," n[key[i]] / n[base[key[i]]] }' \
+  { n[$1 "," $2 "," $3] = $5 - $4; if ($3 != "none") key[++nk] = $1 "," $2 "," $3 }
+  END { for (i = 1; i <= nk; ++i) { split(key[i], f, ","); print key[i] "," n[key[i]] / n[f[1] "," f[2] ",none"] } }' \
   "$out/totals.csv" |
   awk -F, -v configs="${configs[*]:1}" -f scripts/cost-table.awk \
     -v title="Instructions per sample over those of the same integrator without a regulariser (48x48, 1 thread, seed 1; renders of 10 and 2 spp, their difference)." \

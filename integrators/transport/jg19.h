@@ -334,16 +334,16 @@ private:
     // Whether the loosest request makes the smooth BSDF b rough (PathVertex::roughenedByRequest):
     // from smooth_ for the scene's smooth BSDFs (beginIteration), else b's own answer, a virtual
     // call of about 100 instructions that extend() would otherwise make at every smooth vertex.
-    bool roughenedByLoosest(const Bxdf& b) const {
-        for (const SmoothBsdf& e : smooth_)
-            if (e.bxdf == &b) return e.roughened;
-        return !b.deltaUnder(loosest_);
-    }
     struct SmoothBsdf {
         const Bxdf* bxdf;
         bool roughened;
     };
     std::vector<SmoothBsdf> smooth_;
+    bool roughenedByLoosest(const Bxdf& b) const {
+        for (const SmoothBsdf& e : smooth_)
+            if (e.bxdf == &b) return e.roughened;
+        return !b.deltaUnder(loosest_);
+    }
     // tau' = tau_n / sigma (Eq. 19).
     float boundAt(double spread) const {
         if (std::isnan(spread)) return float(spread);  // (7): select() refuses it, not tau_n in its place

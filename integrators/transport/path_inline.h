@@ -85,29 +85,19 @@ inline void applyContinuation(BsdfEval& e, const Bxdf& b) {
 // (mayRequest false: ctx carries no request, as reg::None's; see reg::kMayRequest.)
 // (A smooth BSDF, a connection end only under a request: its plain value and densities are 0
 // for every pair, and the request's evaluation says itself whether the request leaves it a delta,
-// so neither the plain evaluation nor requestCanChange's question is asked. An end without a
-// request takes the unregularised evaluation first, as the commonest.)
+// so neither the plain evaluation nor requestCanChange's question is asked.)
 template <bool mayRequest = true>
 inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio,
                                  float& regularisedPdf) {
+    const bool request = mayRequest && !ctx.reg.empty();
     BsdfEval e;
-    if (!mayRequest || ctx.reg.empty()) {
-        e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
-    } else if (v.deltaBsdf) {
+    if (!(request && v.deltaBsdf)) e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
+    if (request && (v.deltaBsdf || requestCanChange(v, ctx))) {
+        const Color plain = e.f;
         const BsdfEval r = v.bsdf().eval(v.wo, wi, ctx);
         e.f = r.f;
         regularisedPdf = r.pdfFwd.value;
-        ratio = regularisedRatio(e.f, Color(0.f));
-        return e;  // (the continuation of 0 densities: 0)
-    } else {
-        e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
-        if (requestCanChange(v, ctx)) {
-            const Color plain = e.f;
-            const BsdfEval r = v.bsdf().eval(v.wo, wi, ctx);
-            e.f = r.f;
-            regularisedPdf = r.pdfFwd.value;
-            ratio = regularisedRatio(e.f, plain);
-        }
+        ratio = regularisedRatio(e.f, plain);
     }
     applyContinuation(e, *v.bxdf);
     return e;
