@@ -3,6 +3,7 @@
 // of the regularised densities (Eq. 13), and it renders light that the unregularised path tracer
 // cannot (a point light inside glass).
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
@@ -426,7 +427,8 @@ TEST_CASE("JG19 quality heuristic: q (Eq. 17) and the regularised vertex equal h
         Technique nee = h.technique(jg, 1), ss = h.technique(jg, 2), lt = h.technique(jg, 3);
         CHECK(selectBoth(jg, nee));  // its ends contain x_1
         CHECK(nee.regularised[0] == 1);
-        CHECK(selectBoth(jg, ss));
+        CHECK(!selectBoth(jg, ss));  // its ends contain x_1, but x_2 stays a delta: its value there is 0
+        CHECK(ss.regularised[0] == 1);
         CHECK(!selectBoth(jg, lt));  // light tracing walks through x_1
         const reg::Jg19 jgBpt = fixedTau(30.0, scene, bpt);
         Technique ssBpt = h.technique(jgBpt, 2);
@@ -581,7 +583,7 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
     const bool cone = specular == reg::SpecularMode::Cone;
     const reg::Jg19 jg = fixedTau(cone ? 3.0 : 30.0, scene, cfg, diffusion, specular);
     const PathVertex cam = cameraEndpoint(scene, jg);
-    int checked = 0, regularisedPaths = 0, splits = 0, merges = 0, smoothMerges = 0;
+    int checked = 0, regularisedPaths = 0, splits = 0, merges = 0, smoothMerges = 0, smoothEndRefused = 0;
     double worst = 0.0;
     for (uint64_t i = 0; i < 1500; ++i) {
         Rng rng(i, 57);
@@ -616,7 +618,15 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                     }
                     bool contains = true;
                     for (int j : R) contains = contains && (j == k - 1 || j == k);
-                    if (!R.empty()) CHECK(contributes == contains);
+                    // ... and its other end is connectible as it is: a smooth end the choice left
+                    // a delta would evaluate to 0, so the technique is refused before its
+                    // evaluations and shadow ray.
+                    bool evaluable = true;
+                    for (int j : {k - 1, k})
+                        if (j >= 0 && j < n && std::find(R.begin(), R.end(), j) == R.end() && !h.x[j].connectible())
+                            evaluable = false;
+                    if (!R.empty()) CHECK(contributes == (contains && evaluable));
+                    smoothEndRefused += !R.empty() && contains && !evaluable;
                     ++splits;
                 }
                 std::vector<const PathVertex*> xs;
@@ -647,9 +657,11 @@ TEST_CASE("JG19 quality heuristic: one choice per path, and MIS weights equal a 
                          smoothMerges += z[t - 1].deltaBsdf && ours > 0.0;
                      });
     }
-    INFO(checked << " weights, " << regularisedPaths << " on regularised paths, " << splits << " splits, " << merges
-                 << " merges (" << smoothMerges << " on smooth surfaces made rough, with weight); worst " << worst);
+    INFO(checked << " weights, " << regularisedPaths << " on regularised paths, " << splits << " splits ("
+                 << smoothEndRefused << " refused at a smooth end left a delta), " << merges << " merges ("
+                 << smoothMerges << " on smooth surfaces made rough, with weight); worst " << worst);
     CHECK(checked > 3000);
+    CHECK(smoothEndRefused > 0);
     // (Cones: 54-138 regularised paths and 7-9 merges on smooth surfaces with weight, measured.)
     CHECK(regularisedPaths > (cone ? 40 : 100));
     if (merging) CHECK(merges > 200);

@@ -110,6 +110,15 @@ bool containsRegularised(const Technique& tech, int a, int b) {
     return true;
 }
 
+// Whether each end of the technique is regularised or connectible as it is: an end that is a
+// smooth vertex left a delta (a technique of the path ending beside the regularised vertex)
+// evaluates to 0, and its connection's shadow ray and evaluations are spared.
+bool endsEvaluable(const Technique& tech, const PathView& path) {
+    for (int j : {path.lightEnd, path.cameraEnd})
+        if (j >= 0 && j != tech.regularised[0] && j != tech.regularised[1] && !path.vertex(j).connectible()) return false;
+    return true;
+}
+
 }  // namespace
 
 bool Jg19::select(Technique& tech, bool shortcut, bool fast) const {
@@ -353,7 +362,7 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
             tech.bound[m] = diffusion() ? taus[j] : radiance_.reg.tau;
             tech.regularised[m++] = j;
         }
-    return containsRegularised(tech, path.lightEnd, path.cameraEnd);
+    return containsRegularised(tech, path.lightEnd, path.cameraEnd) && endsEvaluable(tech, path);
 }
 
 bool Jg19::perTechnique(const Technique& tech) const {

@@ -37,7 +37,9 @@
 //     use (SubpathState::mergeMin). Only the other paths take the O(n) loop (selectByLoop: the
 //     plain form, which tests compare it with).
 //     Every technique then evaluates the same integrand on this path: those whose connection
-//     ends contain the regularised vertices compete with their sampling densities (Eq. 13's
+//     ends contain the regularised vertices (and no smooth vertex left a delta: its value there
+//     is 0, so select refuses it before its evaluations and shadow ray; BPT on caustic-mirror:
+//     11,000 connections of 155,000) compete with their sampling densities (Eq. 13's
 //     rho_hat / rho factors are common to all of them and cancel), the others (walking through a
 //     regularised vertex, or hitting the emitter) have weight 0 there. Unbiased where no vertex
 //     is regularised; the regularised share vanishes as tau_n grows.
