@@ -240,7 +240,7 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     BsdfEval eb;
     float cosB;
     if (toCamera) {
-        // Light tracing: the camera's importance and the raster position of a.
+        // Light tracing: the camera's importance (a's raster position is known from above).
         const Camera& cam = scene.camera();
         eb.f = Color(cam.importance(wBA));
         eb.pdfFwd = cam.directionPdf(wBA);
