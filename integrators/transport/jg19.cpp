@@ -111,8 +111,9 @@ bool containsRegularised(const Technique& tech, int a, int b) {
 }
 
 // Whether each end of the technique is regularised or connectible as it is: an end that is a
-// smooth vertex left a delta (a technique of the path ending beside the regularised vertex)
-// evaluates to 0, and its connection's shadow ray and evaluations are spared.
+// smooth vertex left a delta (on an unregularised path, or a technique of the path ending beside
+// the regularised vertex) evaluates to 0, and its connection's shadow ray and evaluations are
+// spared.
 bool endsEvaluable(const Technique& tech, const PathView& path) {
     for (int j : {path.lightEnd, path.cameraEnd})
         if (j >= 0 && j != tech.regularised[0] && j != tech.regularised[1] && !path.vertex(j).connectible()) return false;
@@ -145,13 +146,9 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
     if (changeable == 0.f) return true;
 
     const int n = path.n;
-    // Eq. 18's "unregularised" answer: a technique connecting at a vertex that stays a delta then
-    // has nothing to add.
-    auto unregularised = [&]() {
-        for (int j : {path.lightEnd, path.cameraEnd})
-            if (j >= 0 && !path.vertex(j).connectible()) return false;
-        return true;
-    };
+    // Eq. 18's "unregularised" answer: nothing regularised (tech.regularised is still -1, -1), so a
+    // technique connecting at a vertex that stays a delta has nothing to add (endsEvaluable).
+    auto unregularised = [&]() { return endsEvaluable(tech, path); };
     // The segment x_join - x_{join+1} joins the two subpaths (measured here; the others' lengths
     // d_j are on the walks' records), and d_path (Eq. 17) is the sum of the subpaths' running
     // lengths and this one. A segment to a vertex at infinity (or the light walk's first segment
