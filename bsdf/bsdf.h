@@ -127,6 +127,27 @@ struct BsdfSample {
 enum class MicrofacetType { GGX, Beckmann };
 enum class MaskingModel { Smith, VCavity };
 
+// What of a microfacet lobe's value between one pair of directions does not depend on its alphas
+// (isotropic lobes): tan^2 of the polar angles of the pair's half vector (a reflection's, or a
+// refraction's generalised one) and of the two directions. The rest of the value (Fresnel,
+// colour, a refraction's Jacobian and 1/eta^2, the shading-normal correction) is the same under
+// every alpha, so rho_hat / rho under a request is D' G2' / (D G2) of these alone
+// (Bxdf::requestRatio): a regulariser's ratio at a vertex without evaluating the BSDF twice
+// (OPSR's Eq. 12 factors at every inner glossy vertex of a connection, opsr.h (5)).
+struct PairGeometry {
+    enum class Lobe : int {
+        Unavailable,   // the model has no such form (anisotropic, not microfacet, delta): evaluate
+        Zero,          // the pair's value is 0 under every request (sides, chi, no refraction)
+        Reflection,
+        Transmission,
+    };
+    // (no default member initializers: a trivial type, for SubpathState's union; PairGeometry{}
+    // is Unavailable)
+    float tanH2, tanO2, tanI2;
+    Lobe lobe;
+    bool available() const { return lobe != Lobe::Unavailable; }
+};
+
 // Lambert's model (f = R / pi, cosine-weighted sampling), the one implementation: the diffuse
 // Bxdf's virtual functions and SurfaceBsdf's inline path for it both call these.
 struct Lambert {
@@ -183,6 +204,15 @@ public:
     // colour, which are <= 1; R / pi for Lambert; +inf for a lobe that is still a delta). JG19's
     // quality heuristic (Eq. 17) compares connections by it.
     virtual float valueBound(const BsdfContext& ctx) const = 0;
+    // The pair's PairGeometry (local frame, wo and wi as eval's); Lobe::Unavailable where the
+    // model has no such form (the default), and then requestRatio is not to be asked.
+    virtual PairGeometry pairGeometry(const Vec3& /*wo*/, const Vec3& /*wi*/) const { return {}; }
+    // rho_hat / rho of a pair from its available geometry: the value under request r over the
+    // value without one (each channel's ratio is the same), as eval would give them up to
+    // rounding. Exactly 1 where the request changes no alpha of the pair's lobe or the value is 0
+    // under every request (Lobe::Zero); where only the plain value underflows (a Beckmann lobe far
+    // from its peak) large or +inf.
+    virtual float requestRatio(const PairGeometry& /*g*/, const RegularizationRequest& /*r*/) const { return 1.f; }
     // Non-null when this is the plain diffuse model: SurfaceBsdf then evaluates and samples it
     // inline (no virtual call, no spills around one), as pbrt-v4 dispatches on a type tag. The
     // diffuse surface is the most common of all; every other model goes through the virtual calls.

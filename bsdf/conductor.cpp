@@ -77,6 +77,15 @@ public:
         // (Microfacet clamps each alpha to kMinAlpha; the smaller axis bounds an anisotropic lobe.)
         return maxValueBound(lobe_.type, lobe_.masking, std::max(std::min(a.u, a.v), kMinAlpha), false, 1.f);
     }
+    // (one-sided: a pair below the surface is 0 under every request)
+    PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
+        if (!rough_ || lobe_.alphaU != lobe_.alphaV) return {};
+        if (!(wo.z > 0.f) || !(wi.z > 0.f)) return PairGeometry{0.f, 0.f, 0.f, PairGeometry::Lobe::Zero};
+        return microfacetPairGeometry(wo, wi, 1.f, lobe_.masking);
+    }
+    float requestRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, false, 1.f).u, g);
+    }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }

@@ -123,6 +123,15 @@ public:
         if (eta_ == 1.f) return kTransmission | kDelta;
         return rough_ ? (kReflection | kTransmission | kGlossy) : (kReflection | kTransmission | kDelta);
     }
+    PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
+        if (!rough_ || eta_ == 1.f || lobe_.alphaU != lobe_.alphaV) return {};
+        return microfacetPairGeometry(wo, wi, eta_, lobe_.masking);
+    }
+    // (the request resolved for the pair's lobe, as eval resolves it)
+    float requestRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+        const bool transmission = g.lobe == PairGeometry::Lobe::Transmission;
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, transmission, eta_).u, g);
+    }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }

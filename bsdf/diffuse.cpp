@@ -56,6 +56,13 @@ public:
     uint32_t flags() const override { return inner_->flags(); }
     bool deltaUnder(const BsdfContext& ctx) const override { return inner_->deltaUnder(ctx); }
     float valueBound(const BsdfContext& ctx) const override { return inner_->valueBound(ctx); }
+    // (tan^2 of each direction is the same mirrored)
+    PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
+        return wo.z < 0.f ? inner_->pairGeometry(flip(wo), flip(wi)) : inner_->pairGeometry(wo, wi);
+    }
+    float requestRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+        return inner_->requestRatio(g, r);
+    }
     float roughness() const override { return inner_->roughness(); }
     Roughness alpha() const override { return inner_->alpha(); }
     std::string name() const override { return "twosided(" + inner_->name() + ")"; }

@@ -1,6 +1,7 @@
 #include "bsdf/microfacet.h"
 
 #include <cmath>
+#include <limits>
 
 namespace lt {
 
@@ -269,6 +270,71 @@ float microfacetTransmission(const Microfacet& mf, const Vec3& wo, const Vec3& w
     const bool woUp = wo.z > 0.f;
     const float nOut = (mode == TransportMode::Radiance) == woUp ? 1.f : eta;  // n_wo (Radiance) or n_wi
     return base * nOut * nOut;
+}
+
+PairGeometry microfacetPairGeometry(const Vec3& wo, const Vec3& wi, float eta, MaskingModel masking) {
+    PairGeometry g{};
+    g.lobe = PairGeometry::Lobe::Zero;
+    const bool reflection = wo.z * wi.z > 0.f;
+    if (!reflection && !(wo.z * wi.z < 0.f)) return g;
+    Vec3 h;
+    if (reflection) {
+        h = wo + wi;
+    } else {
+        if (eta == 1.f) return g;
+        const Vec3& up = wo.z > 0.f ? wo : wi;
+        const Vec3& dn = wo.z > 0.f ? wi : wo;
+        h = up + dn * eta;
+    }
+    const float l2 = glm::dot(h, h);
+    if (!(l2 > 0.f)) return g;
+    h /= std::sqrt(l2);
+    if (h.z < 0.f) h = -h;
+    if (!(h.z > 0.f)) return g;  // D = 0
+    const float oh = glm::dot(wo, h), ih = glm::dot(wi, h);
+    if (!reflection) {  // (DielectricBxdf::refractionGeometry's test, and the Jacobian's denominator)
+        const float up = wo.z > 0.f ? oh : ih, dn = wo.z > 0.f ? ih : oh;
+        if (!(up > 0.f && dn < 0.f) || up + eta * dn == 0.f) return g;
+    }
+    if (!(oh * wo.z > 0.f) || !(ih * wi.z > 0.f)) return g;  // masking's chi (both models)
+    if (masking == MaskingModel::VCavity && !reflection) {  // G2 = max(0, G1(wo) + G1(wi) - 1)
+        auto g1 = [&](const Vec3& w, float wm) { return std::min(1.f, 2.f * h.z * std::abs(w.z) / std::abs(wm)); };
+        if (!(g1(wo, oh) + g1(wi, ih) - 1.f > 0.f)) return g;
+    }
+    auto tan2 = [](const Vec3& w) { return (w.x * w.x + w.y * w.y) / (w.z * w.z); };
+    g.tanH2 = tan2(h);
+    g.tanO2 = tan2(wo);
+    g.tanI2 = tan2(wi);
+    g.lobe = reflection ? PairGeometry::Lobe::Reflection : PairGeometry::Lobe::Transmission;
+    return g;
+}
+
+namespace {
+
+// Smith's Lambda (Microfacet::lambda) of an isotropic lobe at alpha^2 tan^2(theta) = a2t2.
+double smithLambda(MicrofacetType type, double a2t2) {
+    if (a2t2 == 0.0) return 0.0;
+    if (!(a2t2 < 1e300)) return kInf;
+    if (type == MicrofacetType::GGX) return a2t2 / (2.0 * (1.0 + std::sqrt(1.0 + a2t2)));
+    const double a = 1.0 / std::sqrt(a2t2);
+    return std::max(0.0, 0.5 * (std::exp(-a * a) / (a * kSqrtPiD) - std::erfc(a)));
+}
+
+}  // namespace
+
+float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, float b, const PairGeometry& g) {
+    if (a == b || (g.lobe != PairGeometry::Lobe::Reflection && g.lobe != PairGeometry::Lobe::Transmission)) return 1.f;
+    // (Microfacet clamps its alphas to kMinAlpha.) D(h) = alpha^2 / (pi cos^4 (alpha^2 + tan^2)^2)
+    // for GGX, exp(-tan^2 / alpha^2) / (pi alpha^2 cos^4) for Beckmann: the cosines cancel.
+    const double aa = std::max(a, kMinAlpha), bb = std::max(b, kMinAlpha);
+    const double a2 = aa * aa, b2 = bb * bb, t = g.tanH2;
+    const double q = (a2 + t) / (b2 + t);
+    double r = type == MicrofacetType::GGX ? (b2 / a2) * (q * q)
+                                           : (a2 / b2) * std::exp(t / a2 - t / b2);
+    if (masking == MaskingModel::Smith)  // G2 = G1(wo) G1(wi), G1 = chi / (1 + Lambda)
+        r *= (1.0 + smithLambda(type, a2 * g.tanO2)) * (1.0 + smithLambda(type, a2 * g.tanI2)) /
+             ((1.0 + smithLambda(type, b2 * g.tanO2)) * (1.0 + smithLambda(type, b2 * g.tanI2)));
+    return r < double(std::numeric_limits<float>::max()) ? float(r) : kInf;
 }
 
 }  // namespace lt

@@ -133,4 +133,15 @@ MicrofacetReflectionTerms microfacetReflectionTerms(const Microfacet& mf, const 
 // of one multiplication.
 float microfacetTransmission(const Microfacet& mf, const Vec3& wo, const Vec3& wi, float eta, TransportMode mode);
 
+// ---- rho_hat / rho without evaluations (bsdf.h, PairGeometry) ----------------------------------
+// The geometry of a pair as microfacetReflection (same side) or microfacetTransmission (opposite
+// sides, with the rough dielectric's own test that the half vector separates the two) see it:
+// Lobe::Zero wherever they are 0 for every alpha (their tests before D, and the masking's
+// alpha-independent factors: Smith's chi, V-cavity's G1 and G2).
+PairGeometry microfacetPairGeometry(const Vec3& wo, const Vec3& wi, float eta, MaskingModel masking);
+// D(b) G2(b) / (D(a) G2(a)) for the isotropic alphas a (the plain lobe's) and b (the request's) of
+// a Reflection or Transmission pair: 1 where a == b (and for Lobe::Zero), +inf where the quotient
+// overflows a float. V-cavity masking does not depend on alpha: its factor is 1.
+float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, float b, const PairGeometry& g);
+
 }  // namespace lt

@@ -58,6 +58,18 @@ public:
         return true;
     }
 
+    // The pair's PairGeometry (bsdf.h) for Bxdf::requestRatio, from the world directions as eval
+    // takes them: Lobe::Zero where eval is 0 before the Bxdf (the normals disagree on a side).
+    PairGeometry pairGeometry(const Vec3& woW, const Vec3& wiW) const {
+        if (bxdf_->lambert()) return {};
+        const Vec3 n = frame_.n;
+        const float woN = glm::dot(woW, n), wiN = glm::dot(wiW, n);
+        if (!consistent(glm::dot(woW, ng_), woN) || !consistent(glm::dot(wiW, ng_), wiN))
+            return PairGeometry{0.f, 0.f, 0.f, PairGeometry::Lobe::Zero};
+        return bxdf_->pairGeometry(Vec3(glm::dot(woW, frame_.s), glm::dot(woW, frame_.t), woN),
+                                   Vec3(glm::dot(wiW, frame_.s), glm::dot(wiW, frame_.t), wiN));
+    }
+
     const Bxdf& bxdf() const { return *bxdf_; }
     const Frame& frame() const { return frame_; }
     const Vec3& ng() const { return ng_; }

@@ -710,24 +710,24 @@ TEST_CASE("JG19 select(): the exit from the subpaths' running minima chooses as 
         }
         ++compared;
         const int lightCount = tech.photon ? tech.s - 1 : tech.s;
-        const float changeable = tech.z[tech.t - 1].regState.changeable +
-                                 (lightCount >= 1 ? tech.y[lightCount - 1].regState.changeable : 0.f);
+        const float changeable = tech.z[tech.t - 1].regState.jg.changeable +
+                                 (lightCount >= 1 ? tech.y[lightCount - 1].regState.jg.changeable : 0.f);
         if (b.regularised[0] >= 0 || b.regularised[1] >= 0) ++regularised;
         else if (changeable > 0.f) ++changeableButNot;
     };
     auto checkMinima = [&](const PathVertex* w, int n) {
         double m = kInf;
         float merge = kInf;
-        CHECK(std::isinf(w[0].regState.mergeMin));  // (an endpoint: never a merge)
+        CHECK(std::isinf(w[0].regState.jg.mergeMin));  // (an endpoint: never a merge)
         for (int k = 1; k < n; ++k) {
             const double a = w[k - 1].regState.rhoBar, b = w[k].regState.rhoBar, d = w[k].segmentLength;
             if (a == 0.0 || b == 0.0) m = 0.0;
             else if (std::isfinite(d) && d > 0.0) m = std::min(m, a * b / (d * d));
             // (Tracked only where select() reads them: +inf otherwise.)
-            if (std::isinf(m) || cfg.set != TechniqueSet::Bidirectional) CHECK(std::isinf(w[k].regState.connectionMin));
-            else CHECK(w[k].regState.connectionMin == Approx(m).epsilon(1e-6));
+            if (std::isinf(m) || cfg.set != TechniqueSet::Bidirectional) CHECK(std::isinf(w[k].regState.jg.connectionMin));
+            else CHECK(w[k].regState.jg.connectionMin == Approx(m).epsilon(1e-6));
             if (merging && jg.connectible(w[k])) merge = std::min(merge, w[k].regState.rhoBar);
-            CHECK(w[k].regState.mergeMin == merge);
+            CHECK(w[k].regState.jg.mergeMin == merge);
         }
     };
     for (uint64_t i = 0; i < 400; ++i) {
@@ -836,11 +836,11 @@ TEST_CASE("JG19 diffusion heuristic: spreads along the camera walk and the bound
     const double sigmaS = a + 1.0 / std::sqrt(2.0 * std::numbers::pi * 0.5 / std::numbers::pi), footS = a * dD + sigmaS * dS;
     const reg::Jg19 jg = fixedTau(30.0, scene, MisConfig{TechniqueSet::PathTracer}, true);
     Technique nee = h.technique(jg, 1);  // z = E, D, S
-    CHECK(h.z[1].regState.spread == Approx(a).epsilon(1e-6));
-    CHECK(h.z[1].regState.footprint == Approx(a * dD).epsilon(1e-5));
-    CHECK(h.z[2].regState.spread == Approx(sigmaS).epsilon(1e-6));
-    CHECK(h.z[2].regState.footprint == Approx(footS).epsilon(1e-5));
-    CHECK(h.y[0].regState.spread == -1.f);
+    CHECK(h.z[1].regState.jg.spread == Approx(a).epsilon(1e-6));
+    CHECK(h.z[1].regState.jg.footprint == Approx(a * dD).epsilon(1e-5));
+    CHECK(h.z[2].regState.jg.spread == Approx(sigmaS).epsilon(1e-6));
+    CHECK(h.z[2].regState.jg.footprint == Approx(footS).epsilon(1e-5));
+    CHECK(h.y[0].regState.jg.spread == -1.f);
     REQUIRE(jg.select(nee));
     CHECK(nee.regularised[0] == 1);
     CHECK(nee.bound[0] == Approx(30.0 / sigmaS).epsilon(1e-5));
@@ -849,7 +849,7 @@ TEST_CASE("JG19 diffusion heuristic: spreads along the camera walk and the bound
         CHECK(jg.select(other) == (s == 2));
         CHECK(other.regularised[0] == 1);
         CHECK(other.bound[0] == Approx(30.0 / sigmaS).epsilon(1e-5));
-        CHECK(h.y[s - 1].regState.spread == -1.f);
+        CHECK(h.y[s - 1].regState.jg.spread == -1.f);
     }
     // The diffusion makes the request looser than tau here (sigma_S > 1): a blurrier glass.
     CHECK(sigmaS > 1.0);
@@ -880,15 +880,15 @@ TEST_CASE("JG19 diffusion heuristic: no request changes a diffuse vertex whateve
             if (!allowsTechnique(set, s, 4 - s)) continue;
             Technique tech = h.technique(jg, s);
             INFO("set " << int(set) << " s " << s);
-            for (int k = 0; k < s; ++k) CHECK(h.y[k].regState.changeable == 0.f);
-            for (int k = 0; k < 4 - s; ++k) CHECK(h.z[k].regState.changeable == 0.f);
+            for (int k = 0; k < s; ++k) CHECK(h.y[k].regState.jg.changeable == 0.f);
+            for (int k = 0; k < 4 - s; ++k) CHECK(h.z[k].regState.jg.changeable == 0.f);
             CHECK(jg.selectByLoop(tech));
             CHECK(tech.regularised[0] == -1);
             CHECK(tech.regularised[1] == -1);
         }
         // (the premise: tau' at the diffuse vertex next to the light is below its rho_bar)
         h.technique(jg, 1);
-        CHECK(0.2 / double(h.z[2].regState.spread) < 1.0 / std::numbers::pi);
+        CHECK(0.2 / double(h.z[2].regState.jg.spread) < 1.0 / std::numbers::pi);
     }
 }
 
@@ -922,7 +922,7 @@ TEST_CASE("JG19's walks mark smooth vertices made rough by the loosest request a
                     for (int k = 0; k < na; ++k) {
                         INFO("tau0 " << tau0 << " diffusion " << diffusion << " n " << n << " walk " << i << " vertex " << k);
                         CHECK(a[k].roughenedByRequest == b[k].roughenedByRequest);
-                        CHECK(a[k].regState.changeable == b[k].regState.changeable);
+                        CHECK(a[k].regState.jg.changeable == b[k].regState.jg.changeable);
                         smoothVertices += a[k].deltaBsdf && a[k].kind == VertexKind::Surface;
                         roughened += a[k].roughenedByRequest;
                     }

@@ -81,7 +81,7 @@ TEST_CASE("A regulariser's value that is not a number refuses its technique and 
         auto select = [&](int s, bool nanSpread) {
             Technique t = h.technique(jg, s);
             if (nanSpread)  // (after technique(), whose extend() writes the camera walk's spreads)
-                for (int k = 0; k < t.t; ++k) h.z[k].regState.spread = kNaN;
+                for (int k = 0; k < t.t; ++k) h.z[k].regState.jg.spread = kNaN;
             const bool answer = jg.select(t);
             for (int m = 0; m < 2; ++m)
                 if (t.regularised[m] >= 0) CHECK_FALSE(std::isnan(t.bound[m]));

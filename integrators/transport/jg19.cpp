@@ -57,6 +57,7 @@ float Jg19::lightBound(const Light& light) {
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {
     if (!detail::requestCanChange(v, radiance_)) return 1.f;
     const SurfaceBsdf b = v.bsdf();
+    if (const PairGeometry pair = b.pairGeometry(v.wo, wi); pair.available()) return v.bxdf->requestRatio(pair, radiance_.reg);
     return detail::regularisedRatio(b.eval(v.wo, wi, radiance_.valueOnlyCopy()).f,
                                     b.eval(v.wo, wi, kRadianceContext.valueOnlyCopy()).f);
 }
@@ -138,10 +139,10 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
         return true;
     }
     // Nothing the request changes on this path: unregularised (the common case, O(1)).
-    float changeable = tech.t >= 1 ? tech.z[tech.t - 1].regState.changeable : 0.f;
+    float changeable = tech.t >= 1 ? tech.z[tech.t - 1].regState.jg.changeable : 0.f;
     if (path.lightCount >= 1) {
         if (!tech.y) throw std::logic_error("JG19: a merge needs the light subpath");
-        changeable += tech.y[path.lightCount - 1].regState.changeable;
+        changeable += tech.y[path.lightCount - 1].regState.jg.changeable;
     }
     if (changeable == 0.f) return true;
 
@@ -184,7 +185,7 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
     // The common case without the loops below: a connection term already under tau^2, so q is
     // (Eq. 18). Known in O(1): the joining segment's term, an emitter hit's first segment, and,
     // where every connection is a technique (BPT, VCM), d_path^2 times the subpaths' running
-    // minima (SubpathState::connectionMin, stored in float: the margin kExitMargin keeps this exit
+    // minima (Jg19Heuristic::connectionMin, stored in float: the margin kExitMargin keeps this exit
     // to paths whose q from the loop, in double, is under tau^2 too, so the choice is the loop's).
     if (shortcut) {
         double known = kInf;
@@ -197,21 +198,21 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
         // subpath's (an emitter hit's x_0 is not a connection or merge end: its camera walk's
         // vertex before it).
         const int lastCamera = tech.s == 0 ? tech.t - 2 : tech.t - 1;
-        auto subpathsMin = [&](float SubpathState::*field) {
+        auto subpathsMin = [&](float Jg19Heuristic::*field) {
             double m = kInf;
-            if (path.lightCount >= 1) m = tech.y[path.lightCount - 1].regState.*field;
-            if (lastCamera >= 0) m = std::min(m, double(tech.z[lastCamera].regState.*field));
+            if (path.lightCount >= 1) m = tech.y[path.lightCount - 1].regState.jg.*field;
+            if (lastCamera >= 0) m = std::min(m, double(tech.z[lastCamera].regState.jg.*field));
             return m;
         };
         if (set_ == TechniqueSet::Bidirectional) {
-            const double m = subpathsMin(&SubpathState::connectionMin);
+            const double m = subpathsMin(&Jg19Heuristic::connectionMin);
             if (m == 0.0) known = 0.0;
             else if (dPath > 0.0) known = std::min(known, m * sqr(dPath));
         }
         // The merges' terms (the merge at x_i: rho_bar_i d_path^2 / (N pi r^2), x_i inner and
         // connectible: on the light subpath after x_0, on the camera subpath before an emitter).
         if (merging_ && mergeDensity_ > 0.0)
-            known = std::min(known, subpathsMin(&SubpathState::mergeMin) * (sqr(dPath) / mergeDensity_));
+            known = std::min(known, subpathsMin(&Jg19Heuristic::mergeMin) * (sqr(dPath) / mergeDensity_));
         // The emitter hit's term where x_1 is not a delta (nothing to unfold).
         if (allowsTechnique(set_, 0, n) && n >= 2) {
             const double rho1 = path.vertex(1).regState.rhoBar;
@@ -229,7 +230,7 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
         const bool diffuse = diffusion();
         if (diffuse)  // (7): the loop's tau' at every camera vertex is a number iff its spread is
             for (int i = 0; i < tech.t; ++i)
-                if (std::isnan(tech.z[i].regState.spread)) {
+                if (std::isnan(tech.z[i].regState.jg.spread)) {
                     invalid_.add();
                     return false;
                 }
@@ -242,17 +243,17 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
         float tau1 = radiance_.reg.tau;  // tau' at x_1 (tau_n itself without diffusion)
         if (diffuse) {
             if (tech.s == 1) {  // (7) at x_0, the light side: its spread across the connection
-                const Diffusion d = Diffusion{x1.regState.spread, x1.regState.footprint}.next(p1, double(x1.curvature), d0);
+                const Diffusion d = Diffusion{x1.regState.jg.spread, x1.regState.jg.footprint}.next(p1, double(x1.curvature), d0);
                 if (std::isnan(boundAt(d.spread))) {
                     invalid_.add();
                     return false;
                 }
             }
-            tau1 = boundAt(x1.regState.spread);
-            if (path.inner(1) && double(tau1) < double(x1.regState.rhoBarReg)) r1 = double(tau1);
+            tau1 = boundAt(x1.regState.jg.spread);
+            if (path.inner(1) && double(tau1) < double(x1.regState.jg.rhoBarReg)) r1 = double(tau1);
         } else {
-            if (tech.s != 0) r0 = x0.regState.rhoBarReg;
-            r1 = x1.regState.rhoBarReg;
+            if (tech.s != 0) r0 = x0.regState.jg.rhoBarReg;
+            r1 = x1.regState.jg.rhoBarReg;
         }
         double q = kInf, best = kInf, bestLength = -1.0;
         // (the loop's consider and choice below, for the two terms: kept apart, as sharing them
@@ -305,17 +306,17 @@ bool Jg19::selectBounds(Technique& tech, bool shortcut, bool fast) const {
             plainB[j] = regB[j] = lightBound(*v.light);  // the emitter a camera walk hit
         } else {
             plainB[j] = v.regState.rhoBar;
-            regB[j] = v.regState.rhoBarReg;
+            regB[j] = v.regState.jg.rhoBarReg;
         }
         if (!diffuse) continue;
-        if (j >= firstCamera) d = Diffusion{v.regState.spread, v.regState.footprint};
+        if (j >= firstCamera) d = Diffusion{v.regState.jg.spread, v.regState.jg.footprint};
         else d = d.next(plainB[j + 1], double(xs[j + 1]->curvature), seg[j]);
         taus[j] = boundAt(d.spread);
         if (std::isnan(taus[j])) {  // regularizer.h (7): refused and counted, not read as "no request"
             invalid_.add();
             return false;
         }
-        regB[j] = path.inner(j) && double(taus[j]) < double(v.regState.rhoBarReg) ? double(taus[j]) : plainB[j];
+        regB[j] = path.inner(j) && double(taus[j]) < double(v.regState.jg.rhoBarReg) ? double(taus[j]) : plainB[j];
     }
     auto bound = [&](int j, bool reg) -> double { return reg ? regB[j] : plainB[j]; };
     double q = kInf, best = kInf, bestLength = -1.0;

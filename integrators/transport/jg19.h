@@ -32,9 +32,9 @@
 //     Cost: q < tau^2 is the common answer, and it is known in O(1) when a term known without
 //     the loop over the path is under tau^2: the joining segment's, and with every connection a
 //     technique (BPT, VCM) d_path^2 times the walks' running minima of rho_bar_a rho_bar_b / d^2
-//     over each subpath's segments (SubpathState::connectionMin), and with merging (VCM)
+//     over each subpath's segments (Jg19Heuristic::connectionMin), and with merging (VCM)
 //     d_path^2 / (N pi r^2) times their running minima of rho_bar over the vertices a merge can
-//     use (SubpathState::mergeMin). Only the other paths take the O(n) loop (selectByLoop: the
+//     use (Jg19Heuristic::mergeMin). Only the other paths take the O(n) loop (selectByLoop: the
 //     plain form, which tests compare it with).
 //     Every technique then evaluates the same integrand on this path: those whose connection
 //     ends contain the regularised vertices (and no smooth vertex left a delta: its value there
@@ -83,9 +83,9 @@
 //     (Eq. 20 as written multiplies d by the spread of the previous segment; we use the spread of
 //     the segment d measures. A delta vertex adds no spread; |H| makes curvature spread a beam
 //     either way, where a concave mirror would focus it: the 2D model has no sign for that.)
-//     The camera walk carries sigma and F on its vertices (SubpathState::spread, footprint), so
+//     The camera walk carries sigma and F on its vertices (Jg19Heuristic::spread, footprint), so
 //     select() steps only across the connection and down the light subpath. The request changes
-//     a vertex when tau' is below its ceiling (SubpathState::rhoBarReg: rho_bar for a rough lobe,
+//     a vertex when tau' is below its ceiling (Jg19Heuristic::rhoBarReg: rho_bar for a rough lobe,
 //     the bound at alpha = kMinAlpha for a delta one, 0 for a diffuse one), and the heuristic's
 //     regularised bound there is tau' (the lobe's exact bound, valueBound, differs only where
 //     alpha_hat(tau') would exceed 1). The camera walk counts the vertices its tau' changes; a
@@ -184,7 +184,7 @@ public:
         const int lightCount = tech.photon ? tech.s - 1 : tech.s;  // (a merge's x_i is z[t-1])
         if (settings_.quality && lightCount >= 1 && tech.t >= 1 && tech.y) {
             const PathVertex &a = tech.y[lightCount - 1], &b = tech.z[tech.t - 1];
-            const bool nothingChangeable = a.regState.changeable + b.regState.changeable == 0.f;
+            const bool nothingChangeable = a.regState.jg.changeable + b.regState.jg.changeable == 0.f;
             if (nothingChangeable || (allowsTechnique(set_, lightCount, tech.t) && connectionUnder(a, b))) {
                 tech.regularised[0] = tech.regularised[1] = -1;
                 // Eq. 18's answer: no end (a merge's: x_i) may stay a delta.
@@ -213,10 +213,10 @@ public:
     void start(PathVertex& v) const {
         v.roughenedByRequest = false;  // (no BSDF)
         v.regState = SubpathState{};
-        v.regState.rhoBar = v.regState.rhoBarReg = endpointBound(v);
+        v.regState.rhoBar = v.regState.jg.rhoBarReg = endpointBound(v);
         if (diffusion()) {
-            v.regState.rhoBarReg = 0.f;  // (no BSDF: nothing to change)
-            v.regState.spread = v.kind == VertexKind::Camera ? 0.f : -1.f;
+            v.regState.jg.rhoBarReg = 0.f;  // (no BSDF: nothing to change)
+            v.regState.jg.spread = v.kind == VertexKind::Camera ? 0.f : -1.f;
         }
     }
     void extend(PathVertex& v, PathVertex& prev) const {
@@ -226,35 +226,35 @@ public:
         st.ratio = 1.f;
         if (settings_.quality) {
             st.accumulated = 0.f;
-            surfaceBounds(v, st.rhoBar, st.rhoBarReg);
+            surfaceBounds(v, st.rhoBar, st.jg.rhoBarReg);
             // The running minima only where select() reads them (with every connection a technique,
             // with merging); +inf otherwise. (PT on point-in-glass: -1.1% instructions.)
-            st.connectionMin = set_ == TechniqueSet::Bidirectional
-                                   ? std::min(prev.regState.connectionMin,
+            st.jg.connectionMin = set_ == TechniqueSet::Bidirectional
+                                   ? std::min(prev.regState.jg.connectionMin,
                                               segmentTerm(prev.regState.rhoBar, st.rhoBar, v.segmentLength))
                                    : kInf;
-            st.mergeMin = merging_ && connectible(v) ? std::min(prev.regState.mergeMin, st.rhoBar) : prev.regState.mergeMin;
+            st.jg.mergeMin = merging_ && connectible(v) ? std::min(prev.regState.jg.mergeMin, st.rhoBar) : prev.regState.jg.mergeMin;
             if (!diffusion()) {
-                st.changeable = prev.regState.changeable + (st.rhoBarReg < st.rhoBar ? 1.f : 0.f);
+                st.jg.changeable = prev.regState.jg.changeable + (st.jg.rhoBarReg < st.rhoBar ? 1.f : 0.f);
                 return;
             }
             const SubpathState& p = prev.regState;
             float tauHere = loosest_.reg.tau;  // (a light subpath: the smallest tau')
-            st.spread = -1.f;
-            st.footprint = 0.f;
-            if (p.spread >= 0.f) {
-                const Diffusion d = Diffusion{p.spread, p.footprint}.next(p.rhoBar, prev.curvature, v.segmentLength);
-                st.spread = float(d.spread);
-                st.footprint = float(d.footprint);
+            st.jg.spread = -1.f;
+            st.jg.footprint = 0.f;
+            if (p.jg.spread >= 0.f) {
+                const Diffusion d = Diffusion{p.jg.spread, p.jg.footprint}.next(p.rhoBar, prev.curvature, v.segmentLength);
+                st.jg.spread = float(d.spread);
+                st.jg.footprint = float(d.footprint);
                 tauHere = boundAt(d.spread);
             }
-            st.changeable = p.changeable + (tauHere < st.rhoBarReg ? 1.f : 0.f);
+            st.jg.changeable = p.jg.changeable + (tauHere < st.jg.rhoBarReg ? 1.f : 0.f);
             return;
         }
         const float r = ratioAt(prev, -v.wo);
         prev.regState.ratio = r;
         st.accumulated = prev.regState.accumulated + (r != 1.f && r < kInf ? 1.f : 0.f);
-        st.rhoBar = st.rhoBarReg = st.changeable = 0.f;
+        st.rhoBar = st.jg.rhoBarReg = st.jg.changeable = 0.f;
     }
     // (4) Any surface vertex with a BSDF that is not still a delta under the smallest bound a
     // vertex can get (tau_n; with the diffusion heuristic tau_n / Diffusion::kMaxSpread): the
@@ -272,7 +272,7 @@ public:
     // rho_bar of a light's directional emission (see (2)), and of a surface vertex's BSDF without
     // and with the iteration's request (0 without a BSDF; with diffusion, the ceiling of (4)).
     static float lightBound(const Light& light);
-    // rho_bar_a rho_bar_b / d^2 of a segment (SubpathState::connectionMin): 0 where a bound is 0,
+    // rho_bar_a rho_bar_b / d^2 of a segment (Jg19Heuristic::connectionMin): 0 where a bound is 0,
     // +inf where d is not finite and positive (the loop of select() compares those unscaled).
     static float segmentTerm(float a, float b, float d) {
         if (a == 0.f || b == 0.f) return 0.f;
@@ -327,10 +327,10 @@ private:
         const float dPath2 = dPath * dPath;
         if (a.regState.rhoBar * b.regState.rhoBar * dPath2 < tauSqExit_ * d2) return true;
         if (set_ == TechniqueSet::Bidirectional &&
-            std::min(a.regState.connectionMin, b.regState.connectionMin) * dPath2 < tauSqExit_)
+            std::min(a.regState.jg.connectionMin, b.regState.jg.connectionMin) * dPath2 < tauSqExit_)
             return true;
         return merging_ &&
-               std::min(a.regState.mergeMin, b.regState.mergeMin) * dPath2 < tauSqExit_ * float(mergeDensity_);
+               std::min(a.regState.jg.mergeMin, b.regState.jg.mergeMin) * dPath2 < tauSqExit_ * float(mergeDensity_);
     }
     void setLimits();  // loosest_ from tau_n (and smooth_ cleared: it was for the previous one)
     // Whether the loosest request makes the smooth BSDF b rough (PathVertex::roughenedByRequest):

@@ -197,8 +197,10 @@ float Opsr::request(const PathVertex* path, int count) const {
 }
 
 float Opsr::requestWith(const PathVertex& v, const float* a, int count) const {
+    return requestFor(v, opsr::accumulatedRoughness(a, count, settings_.attenuation));
+}
+float Opsr::requestFor(const PathVertex& v, float g) const {
     const float own = v.roughness;
-    float g = opsr::accumulatedRoughness(a, count, settings_.attenuation);
     if (settings_.consistent) g = own + float(double(g - own) * offsetScale());
     if (std::isnan(g)) return g;  // regularizer.h (7): select() refuses it and counts it
     if (!(g > own)) return boundOnly(v);
@@ -221,6 +223,13 @@ void Opsr::walkRatio(PathVertex& v, const Vec3& wi) const {
     const float g = request(path, v.depth + 1);
     const TransportMode mode = path[0].kind == VertexKind::Camera ? TransportMode::Radiance : TransportMode::Importance;
     const SurfaceBsdf b = v.bsdf();
+    // The pair's geometry where the BSDF has the form (bsdf.h, PairGeometry): its ratios, this
+    // side's and the other side's (densitiesBidirectional), then need no evaluation.
+    v.regState.pair = b.pairGeometry(v.wo, wi);
+    if (v.regState.pair.available()) {
+        if (g >= 0.f) v.regState.ratio = v.bxdf->requestRatio(v.regState.pair, contextFor(mode, g).reg);
+        return;
+    }
     const Color plain = b.eval(v.wo, wi, BsdfContext(mode).valueOnlyCopy()).f;
     v.regState.rhoBar = plain.x + plain.y + plain.z;
     if (g >= 0.f)
@@ -410,21 +419,48 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
     // and rho from the walk (SubpathState); the other side's rho_hat is evaluated in the walk's
     // mode and directions, over that rho.
     const int lc = x.lightCount;
+    // With one constant gamma (Eq. 11), the products of (1 - gamma a_i) over each side's vertices
+    // before x_j, running from each side's end in the order accumulateWindow multiplies them (so
+    // the same floats as requestFrom's), for every inner vertex at once: O(n) per connection in
+    // place of O(n) per vertex asked. keepL[j] over x_1..x_{j-1}, keepC[j] over x_{n-2}..x_{j+1}.
+    // (Computed when first asked: most connections ask none.)
+    const bool constantGamma = !settings_.attenuation.table;
+    std::array<float, kMaxPathVertices> keepL, keepC;
+    bool kept = false;
+    // requestFrom(tech, j, side), from those products where gamma is constant.
+    auto requestAt = [&](const PathVertex& v, int j, End side) -> float {
+        if (!constantGamma) return requestFrom(tech, j, side);
+        if (!kept) {
+            const float gamma = settings_.attenuation.gamma;
+            keepL[1] = 1.f;
+            for (int i = 2; i <= n - 2; ++i) keepL[i] = keepL[i - 1] * (1.f - gamma * x[i - 1].roughness);
+            keepC[n - 2] = 1.f;
+            for (int i = n - 3; i >= 1; --i) keepC[i] = keepC[i + 1] * (1.f - gamma * x[i + 1].roughness);
+            kept = true;
+        }
+        const bool first = side == End::Light ? j == 1 : j == n - 2;  // (a subpath of one surface vertex, Eq. 6)
+        const float a = v.roughness, keep = side == End::Light ? keepL[j] : keepC[j];
+        return requestFor(v, first ? a : a + (1.f - a) * (1.f - keep));
+    };
     // The ratio at a glossy x_j with the other side's roughness, evaluated (a lambda of its own,
     // so that ratio() below is small enough to be inlined into the loop).
     auto otherSide = [&](const PathVertex& v, int j, End side, bool onLightWalk, bool onCameraWalk) -> float {
-        const float g = requestFrom(tech, j, side);
+        const float g = requestAt(v, j, side);
         if (g < 0.f) return 1.f;
-        const SurfaceBsdf b = v.bsdf();
+        // (the ratio does not depend on the mode or the order of the pair: PairGeometry)
         if (onLightWalk || onCameraWalk) {
+            if (v.regState.pair.available()) return v.bxdf->requestRatio(v.regState.pair, contextFor(modeAt(side), g).reg);
             const TransportMode mode = onLightWalk ? TransportMode::Importance : TransportMode::Radiance;
             const Vec3 wi = x.direction(j, onLightWalk ? j + 1 : j - 1);
-            const Color hat = b.eval(v.wo, wi, contextFor(mode, g).valueOnlyCopy()).f;
+            const Color hat = v.bsdf().eval(v.wo, wi, contextFor(mode, g).valueOnlyCopy()).f;
             return detail::regularisedRatio(hat.x + hat.y + hat.z, v.regState.rhoBar);
         }
         const TransportMode mode = modeAt(side);
         const Vec3 toLight = x.direction(j, j - 1), toCamera = x.direction(j, j + 1);
         const Vec3 wo = side == End::Light ? toLight : toCamera, wi = side == End::Light ? toCamera : toLight;
+        const SurfaceBsdf b = v.bsdf();
+        if (const PairGeometry pair = b.pairGeometry(wo, wi); pair.available())
+            return v.bxdf->requestRatio(pair, contextFor(mode, g).reg);
         return detail::regularisedRatio(b.eval(wo, wi, contextFor(mode, g).valueOnlyCopy()).f,
                                         b.eval(wo, wi, BsdfContext(mode).valueOnlyCopy()).f);
     };

@@ -280,6 +280,8 @@ private:
     // The request for the roughnesses a[0..count-1] of a subpath's surface vertices (a[count-1]
     // that of v, its last).
     float requestWith(const PathVertex& v, const float* a, int count) const;
+    // The same for v's accumulated roughness g (its subpath's, before (3)).
+    float requestFor(const PathVertex& v, float g) const;
     // (6) The request where g changes nothing: v's own roughness (the bound alone) where the bound
     // changes v's BSDF, else -1.
     float boundOnly(const PathVertex& v) const;

@@ -80,8 +80,8 @@ inline void applyContinuation(BsdfEval& e, const Bxdf& b) {
 // continuation probability as the walks' densities ("Russian roulette", path.h). `ratio` receives
 // rho_hat / rho (channel means; +inf when rho is 0 or a delta) and `regularisedPdf` the
 // regularised BSDF's own density of wi (for a policy whose competing technique samples it: OPSR's
-// regularised BSDF sample). Where the request cannot change the BSDF (requestCanChange): one
-// evaluation, as ever, ratio 1 and regularisedPdf left as it was.
+// regularised BSDF sample; not written for a value-only context). Where the request cannot change
+// the BSDF (requestCanChange): one evaluation, as ever, ratio 1 and regularisedPdf left as it was.
 // (mayRequest false: ctx carries no request, as reg::None's; see reg::kMayRequest.)
 // (A smooth BSDF, a connection end only under a request: its plain value and densities are 0
 // for every pair, and the request's evaluation says itself whether the request leaves it a delta,
@@ -94,6 +94,20 @@ inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const Bsdf
     if (!(request && v.deltaBsdf)) e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
     if (request && (v.deltaBsdf || requestCanChange(v, ctx))) {
         const Color plain = e.f;
+        // A glossy end read for its value only: the plain value times rho_hat / rho from the
+        // pair's geometry (bsdf.h, PairGeometry), where the BSDF has that form and the quotient is
+        // finite; the same value as the request's evaluation up to rounding.
+        if (!v.deltaBsdf && ctx.valueOnly && !isBlack(plain)) {
+            if (const PairGeometry pair = v.bsdf().pairGeometry(v.wo, wi); pair.available()) {
+                const float r = v.bxdf->requestRatio(pair, ctx.reg);
+                if (r < kInf) {
+                    e.f = plain * r;
+                    ratio = r;
+                    applyContinuation(e, *v.bxdf);
+                    return e;
+                }
+            }
+        }
         const BsdfEval r = v.bsdf().eval(v.wo, wi, ctx);
         e.f = r.f;
         regularisedPdf = r.pdfFwd.value;

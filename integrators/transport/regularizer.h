@@ -101,34 +101,46 @@ struct Photon;
 struct MisConfig;
 class Scene;
 
+// JG19's quality and diffusion heuristics' part of SubpathState (below).
+struct Jg19Heuristic {
+    // rho_bar of this vertex with the iteration's request (with the diffusion heuristic: the
+    // largest bound under which the request changes the BSDF, 0 if none does), and the number of
+    // vertices of the subpath up to this one that the request changes (may change, on a light
+    // subpath under the diffusion heuristic).
+    float rhoBarReg = 0.f;
+    float changeable = 0.f;
+    // The diffusion heuristic on a camera subpath: the angular spread of the segment arriving
+    // here and the footprint here (jg19.h (4)); spread -1 on a light subpath.
+    float spread = 0.f, footprint = 0.f;
+    // The smallest rho_bar_a rho_bar_b / d^2 over the segments of this subpath up to here (a, b
+    // the segment's ends, d > 0 finite its length; 0 where either bound is 0; +inf with no such
+    // segment). Its connection terms of Eq. 17 are d_path^2 times these, so select() can tell
+    // that q < tau^2 without the path's loop (jg19.h (2)).
+    float connectionMin = kInf;
+    // With merging (VCM): the smallest rho_bar over the vertices of this subpath after its
+    // endpoint up to here where a merge can happen (connectible(); +inf with none). The merge
+    // terms of Eq. 17 are d_path^2 / (N pi r^2) times these (jg19.h (2)).
+    float mergeMin = kInf;
+};
+
 // Per-subpath state of a regulariser on every vertex (PathVertex::regState; the comments give
 // JG19's meanings, OPSR uses accumulated, ratio and rhoBar its own way: opsr.h). Nine floats: the
 // record is 176 bytes with them (168 with eight, 160 with six, 144 with two, which fit the tail
-// padding).
+// padding). The last six are JG19's heuristics' or OPSR's, never both (one policy runs).
 struct SubpathState {
     float accumulated = 0.f;  // (JG19: the number of vertices before this one whose ratio is finite, not 1)
     // JG19: rho_hat / rho at this vertex, between its two neighbours on its own subpath (written
     // when the walk extends past it; +inf when rho is 0 or a delta: a "singular" vertex).
     float ratio = 1.f;
     // JG19's quality heuristic: rho_bar of this vertex (its BSDF's bound, Bxdf::valueBound, or an
-    // endpoint's bound on its directional density), without and with the iteration's request
-    // (with the diffusion heuristic: the largest bound under which the request changes the BSDF,
-    // 0 if none does), and the number of vertices of the subpath up to this one that the request
-    // changes (may change, on a light subpath under the diffusion heuristic).
-    float rhoBar = 0.f, rhoBarReg = 0.f;
-    float changeable = 0.f;
-    // JG19's diffusion heuristic on a camera subpath: the angular spread of the segment arriving
-    // here and the footprint here (jg19.h (4)); spread -1 on a light subpath.
-    float spread = 0.f, footprint = 0.f;
-    // JG19's quality heuristic: the smallest rho_bar_a rho_bar_b / d^2 over the segments of this
-    // subpath up to here (a, b the segment's ends, d > 0 finite its length; 0 where either bound
-    // is 0; +inf with no such segment). Its connection terms of Eq. 17 are d_path^2 times these,
-    // so select() can tell that q < tau^2 without the path's loop (jg19.h (2)).
-    float connectionMin = kInf;
-    // JG19's quality heuristic with merging (VCM): the smallest rho_bar over the vertices of this
-    // subpath after its endpoint up to here where a merge can happen (connectible(); +inf with
-    // none). The merge terms of Eq. 17 are d_path^2 / (N pi r^2) times these (jg19.h (2)).
-    float mergeMin = kInf;
+    // endpoint's bound on its directional density) without the iteration's request.
+    float rhoBar = 0.f;
+    union {
+        Jg19Heuristic jg{};
+        // OPSR (BPT, VCM): the geometry of a glossy vertex the walk has left, between its two
+        // walk neighbours, for rho_hat / rho under the other side's roughness (opsr.h (5)).
+        PairGeometry pair;
+    };
 };
 
 // (7) The count of a policy's values found not to be numbers; shared by the render's threads

@@ -1,0 +1,168 @@
+// rho_hat / rho without evaluations (bsdf.h, PairGeometry; Bxdf::requestRatio): the ratio of a
+// BSDF's value under a regularisation request to its plain value, from the pair's
+// alpha-independent geometry, against the two evaluations it replaces. Deterministic (fixed
+// seeds); the tolerance is float rounding: eval computes D in double and the rest in float, the
+// ratio in double, so the two agree to a few float ulps of each factor (1e-4 relative leaves two
+// orders of magnitude of margin, and a wrong factor, e.g. a missed alpha in one Lambda, is off by
+// far more: the test "a wrong formula is detected" below shows it for the smallest change).
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "bsdf/bsdf.h"
+#include "bsdf/microfacet.h"
+#include "bsdf/surface_bsdf.h"
+#include "core/rng.h"
+#include "core/sampling.h"
+
+using namespace lt;
+
+namespace {
+
+const Color kCuEta(0.200438f, 0.924033f, 1.10221f), kCuK(3.91295f, 2.45285f, 2.14219f);
+
+struct Model {
+    std::string name;
+    BxdfPtr bxdf;
+};
+
+std::vector<Model> roughModels() {
+    std::vector<Model> m;
+    char buf[160];
+    for (MicrofacetType t : {MicrofacetType::GGX, MicrofacetType::Beckmann})
+        for (MaskingModel k : {MaskingModel::Smith, MaskingModel::VCavity})
+            for (float a : {1e-3f, 0.05f, 0.3f, 0.9f}) {
+                const char* tn = t == MicrofacetType::GGX ? "GGX" : "Beckmann";
+                const char* kn = k == MaskingModel::Smith ? "Smith" : "VCavity";
+                std::snprintf(buf, sizeof buf, "conductor %s %s alpha %g", tn, kn, a);
+                m.push_back({buf, makeRoughConductor(t, a, a, kCuEta, kCuK, Color(1.f), k)});
+                for (float eta : {1.33f, 1.5f, 2.4f, 1.f / 1.5f}) {
+                    std::snprintf(buf, sizeof buf, "dielectric %s %s alpha %g eta %g", tn, kn, a, eta);
+                    m.push_back({buf, makeRoughDielectric(t, a, a, eta, Color(1.f), Color(1.f), k)});
+                }
+            }
+    m.push_back({"twosided conductor GGX Smith alpha 0.2",
+                 makeTwoSided(makeRoughConductor(MicrofacetType::GGX, 0.2f, 0.2f, kCuEta, kCuK, Color(1.f)))});
+    return m;
+}
+
+std::vector<RegularizationRequest> requests() {
+    std::vector<RegularizationRequest> r;
+    for (float g : {0.002f, 0.08f, 0.5f, 1.f}) {
+        RegularizationRequest q;
+        q.minAlpha = {g, g};
+        r.push_back(q);
+    }
+    for (float tau : {0.5f, 30.f, 1000.f}) {
+        RegularizationRequest q;
+        q.tau = tau;
+        r.push_back(q);
+        q.minAlpha = {0.1f, 0.1f};  // both (OPSR with JG19's bound)
+        r.push_back(q);
+    }
+    return r;
+}
+
+float channelSum(const Color& c) { return c.x + c.y + c.z; }
+
+}  // namespace
+
+TEST_CASE("requestRatio equals the quotient of the two evaluations for every rough isotropic lobe") {
+    Rng rng(17, 3);
+    int compared = 0, zeros = 0, transmissions = 0;
+    for (const Model& m : roughModels()) {
+        INFO(m.name);
+        for (const RegularizationRequest& req : requests()) {
+            for (int i = 0; i < 300; ++i) {
+                const Vec3 wo = sampleUniformSphere(rng.uniform2()), wi = sampleUniformSphere(rng.uniform2());
+                const TransportMode mode = i % 2 ? TransportMode::Importance : TransportMode::Radiance;
+                const PairGeometry g = m.bxdf->pairGeometry(wo, wi);
+                REQUIRE(g.available());
+                const float plain = channelSum(m.bxdf->eval(wo, wi, BsdfContext(mode)).f);
+                const float hat = channelSum(m.bxdf->eval(wo, wi, BsdfContext(mode, req)).f);
+                const float r = m.bxdf->requestRatio(g, req);
+                INFO("wo " << wo.x << " " << wo.y << " " << wo.z << " wi " << wi.x << " " << wi.y << " " << wi.z
+                           << " plain " << plain << " hat " << hat << " ratio " << r);
+                if (g.lobe == PairGeometry::Lobe::Zero) {
+                    // Claimed 0 under every request: the plain and the request's values are 0.
+                    CHECK(plain == 0.f);
+                    CHECK(hat == 0.f);
+                    CHECK(r == 1.f);
+                    ++zeros;
+                    continue;
+                }
+                transmissions += g.lobe == PairGeometry::Lobe::Transmission;
+                if (plain == hat) {
+                    // (the request leaves this pair's alpha as it is: exactly 1, as regularisedRatio)
+                    if (plain > 0.f) CHECK(r == 1.f);
+                    continue;
+                }
+                if (plain < 1e-30f || hat < 1e-30f) continue;  // (float underflow in eval: not comparable)
+                CHECK(r == Approx(hat / plain).epsilon(1e-4));
+                ++compared;
+            }
+        }
+    }
+    // The sweep reached every case it is for.
+    CHECK(compared > 20000);
+    CHECK(zeros > 1000);
+    CHECK(transmissions > 5000);
+}
+
+TEST_CASE("requestRatio is exactly 1 where the request changes no alpha") {
+    const BxdfPtr b = makeRoughConductor(MicrofacetType::GGX, 0.3f, 0.3f, kCuEta, kCuK, Color(1.f));
+    RegularizationRequest below;
+    below.minAlpha = {0.2f, 0.2f};
+    const PairGeometry g = b->pairGeometry(Vec3(0.3f, 0.1f, 0.95f), Vec3(-0.2f, 0.4f, 0.89f));
+    REQUIRE(g.lobe == PairGeometry::Lobe::Reflection);
+    CHECK(b->requestRatio(g, below) == 1.f);
+    CHECK(b->requestRatio(g, RegularizationRequest{}) == 1.f);
+}
+
+TEST_CASE("pairGeometry is unavailable where the form does not hold") {
+    const Vec3 wo(0.3f, 0.1f, 0.95f), wi(-0.2f, 0.4f, 0.89f);
+    CHECK(!makeDiffuse(Color(0.5f))->pairGeometry(wo, wi).available());
+    CHECK(!makeConductor(kCuEta, kCuK, Color(1.f))->pairGeometry(wo, wi).available());       // a delta
+    CHECK(!makeDielectric(1.5f)->pairGeometry(wo, wi).available());                           // a delta
+    CHECK(!makeRoughDielectric(MicrofacetType::GGX, 0.2f, 0.2f, 1.f)->pairGeometry(wo, wi).available());  // index-matched
+    CHECK(!makeRoughConductor(MicrofacetType::GGX, 0.05f, 0.3f, kCuEta, kCuK, Color(1.f))->pairGeometry(wo, wi).available());
+}
+
+TEST_CASE("SurfaceBsdf's pairGeometry is the local one, and Zero where the normals disagree") {
+    const BxdfPtr b = makeRoughDielectric(MicrofacetType::GGX, 0.2f, 0.2f, 1.5f);
+    const Vec3 n = glm::normalize(Vec3(0.3f, -0.2f, 0.9f));
+    const Frame frame(n);
+    const Vec3 woL(0.3f, 0.1f, 0.95f), wiL(-0.2f, 0.4f, -0.89f);
+    const Vec3 wo = frame.toWorld(glm::normalize(woL)), wi = frame.toWorld(glm::normalize(wiL));
+    RegularizationRequest req;
+    req.minAlpha = {0.6f, 0.6f};
+    const SurfaceBsdf s(b.get(), frame, n);
+    const PairGeometry world = s.pairGeometry(wo, wi), local = b->pairGeometry(glm::normalize(woL), glm::normalize(wiL));
+    REQUIRE(world.lobe == PairGeometry::Lobe::Transmission);
+    CHECK(b->requestRatio(world, req) == Approx(b->requestRatio(local, req)).epsilon(1e-5));
+    CHECK(b->requestRatio(world, req) ==
+          Approx(channelSum(s.eval(wo, wi, BsdfContext(TransportMode::Radiance, req)).f) /
+                 channelSum(s.eval(wo, wi, BsdfContext(TransportMode::Radiance)).f))
+              .epsilon(1e-4));
+    // A geometric normal on the other side of wi than the shading normal: eval is 0, and so the
+    // geometry says for every request.
+    const Vec3 ng = glm::normalize(n - 3.f * wi * glm::dot(wi, n));
+    REQUIRE(glm::dot(ng, wi) * glm::dot(n, wi) < 0.f);
+    const SurfaceBsdf leak(b.get(), frame, ng);
+    CHECK(leak.pairGeometry(wo, wi).lobe == PairGeometry::Lobe::Zero);
+    CHECK(isBlack(leak.eval(wo, wi, BsdfContext(TransportMode::Radiance, req)).f));
+}
+
+TEST_CASE("microfacetAlphaRatio: a wrong formula is detected") {
+    // The comparison above must be able to fail: the ratio with the request's alpha a few ulps
+    // of 1e-3 off (a Lambda evaluated at the wrong alpha would be off by far more) differs from
+    // the evaluations' quotient by more than the tolerance on a grazing pair.
+    const PairGeometry g = microfacetPairGeometry(glm::normalize(Vec3(0.95f, 0.f, 0.1f)),
+                                                  glm::normalize(Vec3(-0.6f, 0.3f, 0.7f)), 1.f, MaskingModel::Smith);
+    REQUIRE(g.lobe == PairGeometry::Lobe::Reflection);
+    const float right = microfacetAlphaRatio(MicrofacetType::GGX, MaskingModel::Smith, 0.05f, 0.3f, g);
+    const float off = microfacetAlphaRatio(MicrofacetType::GGX, MaskingModel::Smith, 0.05f, 0.3f * 1.001f, g);
+    CHECK(off != Approx(right).epsilon(1e-4));
+}
