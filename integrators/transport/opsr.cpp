@@ -190,7 +190,11 @@ float Opsr::request(const PathVertex* path, int count) const {
     // The common answers first, in O(1): a vertex no request can change (mayChange: Lambert counts
     // roughness 1), and (tables) one in the top bin, which keeps its roughness.
     if (count < 2 || !mayChange(v)) return -1.f;
-    if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return boundOnly(v);
+    if (!settings_.attenuation.table) {  // Eq. 11 from the walk's running product (OpsrState::keep)
+        const float a = v.roughness;
+        return requestFor(v, count == 2 ? a : a + (1.f - a) * (1.f - v.regState.opsr.keep));
+    }
+    if (opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return boundOnly(v);
     std::array<float, kMaxPathVertices> a;
     for (int j = 1; j < count; ++j) a[j - 1] = path[j].roughness;
     return requestWith(v, a.data(), count - 1);
@@ -225,9 +229,9 @@ void Opsr::walkRatio(PathVertex& v, const Vec3& wi) const {
     const SurfaceBsdf b = v.bsdf();
     // The pair's geometry where the BSDF has the form (bsdf.h, PairGeometry): its ratios, this
     // side's and the other side's (densitiesBidirectional), then need no evaluation.
-    v.regState.pair = b.pairGeometry(v.wo, wi);
-    if (v.regState.pair.available()) {
-        if (g >= 0.f) v.regState.ratio = v.bxdf->requestRatio(v.regState.pair, contextFor(mode, g).reg);
+    v.regState.opsr.pair = b.pairGeometry(v.wo, wi);
+    if (v.regState.opsr.pair.available()) {
+        if (g >= 0.f) v.regState.ratio = v.bxdf->requestRatio(v.regState.opsr.pair, contextFor(mode, g).reg);
         return;
     }
     const Color plain = b.eval(v.wo, wi, BsdfContext(mode).valueOnlyCopy()).f;
@@ -449,7 +453,7 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
         if (g < 0.f) return 1.f;
         // (the ratio does not depend on the mode or the order of the pair: PairGeometry)
         if (onLightWalk || onCameraWalk) {
-            if (v.regState.pair.available()) return v.bxdf->requestRatio(v.regState.pair, contextFor(modeAt(side), g).reg);
+            if (v.regState.opsr.pair.available()) return v.bxdf->requestRatio(v.regState.opsr.pair, contextFor(modeAt(side), g).reg);
             const TransportMode mode = onLightWalk ? TransportMode::Importance : TransportMode::Radiance;
             const Vec3 wi = x.direction(j, onLightWalk ? j + 1 : j - 1);
             const Color hat = v.bsdf().eval(v.wo, wi, contextFor(mode, g).valueOnlyCopy()).f;

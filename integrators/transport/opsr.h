@@ -221,15 +221,20 @@ public:
     // walk neighbours with its own subpath's roughness (1 where that changes nothing) and rhoBar =
     // rho there (the channel sum, in the walk's transport mode; 0 elsewhere), so densities()
     // evaluates only the other side's rho_hat there. The path tracer needs none of it.
+    // keep (OpsrState): the product of Eq. 11 over the subpath before this vertex (constant gamma).
     void start(PathVertex& v) const {
         v.regState.accumulated = 0.f;
         v.regState.ratio = 1.f;
         v.regState.rhoBar = 0.f;
+        v.regState.opsr.keep = 1.f;
     }
     void extend(PathVertex& v, PathVertex& prev) const {
         v.regState.accumulated = prev.regState.accumulated + (glossy(v) ? 1.f : 0.f);
         v.regState.ratio = 1.f;
         v.regState.rhoBar = 0.f;
+        v.regState.opsr.keep = prev.kind == VertexKind::Surface
+                                   ? prev.regState.opsr.keep * (1.f - settings_.attenuation.gamma * prev.roughness)
+                                   : 1.f;
         if (settings_.bidirectional && glossy(prev) && prev.depth >= 1) walkRatio(prev, -v.wo);
     }
     // Smooth surface vertices too where a connection may end there: whether the request makes one

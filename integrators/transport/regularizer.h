@@ -123,6 +123,17 @@ struct Jg19Heuristic {
     float mergeMin = kInf;
 };
 
+// OPSR's part of SubpathState (opsr.h).
+struct OpsrState {
+    // BPT, VCM: the geometry of a glossy vertex the walk has left, between its two walk
+    // neighbours, for rho_hat / rho under the other side's roughness (opsr.h (5)).
+    PairGeometry pair;
+    // With one constant gamma: prod (1 - gamma a_i) over the subpath's surface vertices before this
+    // one, in the order of Eq. 11's product (opsr.h (2)), so that a vertex's accumulated roughness
+    // is known without a loop over its subpath.
+    float keep;
+};
+
 // Per-subpath state of a regulariser on every vertex (PathVertex::regState; the comments give
 // JG19's meanings, OPSR uses accumulated, ratio and rhoBar its own way: opsr.h). Nine floats: the
 // record is 176 bytes with them (168 with eight, 160 with six, 144 with two, which fit the tail
@@ -137,9 +148,7 @@ struct SubpathState {
     float rhoBar = 0.f;
     union {
         Jg19Heuristic jg{};
-        // OPSR (BPT, VCM): the geometry of a glossy vertex the walk has left, between its two
-        // walk neighbours, for rho_hat / rho under the other side's roughness (opsr.h (5)).
-        PairGeometry pair;
+        OpsrState opsr;
     };
 };
 
