@@ -48,9 +48,10 @@
 //     (1 where the request changes nothing), and the techniques estimate different integrands.
 //     - Glossy ends (a microfacet lobe, alpha < 1): MIS as JG19 Eqs. 12-13 (jg19.h (3)): technique
 //       k's density is p_k / (R_L(x_{k-1}) R_C(x_k)), each ratio at k's own ends with k's own
-//       roughness. Each inner glossy vertex has its own side's R and its rho from its walk
-//       (extend); densities() evaluates its other side's rho_hat (one BSDF evaluation per inner
-//       glossy vertex per connection, two at the connection's ends). The weights of the
+//       roughness. Each inner glossy vertex has its own side's R and its pair geometry from its
+//       walk (extend; bsdf.h, PairGeometry); densities() takes its other side's R from that
+//       geometry (Bxdf::requestRatio: D' G2' / (D G2), no evaluation; an anisotropic lobe, which
+//       has no such form, is evaluated). The weights of the
 //       techniques that can sample a path sum to one, each f_k is finite, and the combination
 //       lies between them.
 //     - Smooth ends (a conductor or dielectric with a delta BSDF): own-end regularisation and
@@ -218,9 +219,11 @@ public:
     // SubpathState (BPT, VCM: (5)): accumulated, the number of glossy surface vertices (a
     // microfacet lobe a request may change: glossy()) of the subpath up to this one, for
     // perTechnique; at a glossy vertex the walk has left, ratio = rho_hat / rho between its two
-    // walk neighbours with its own subpath's roughness (1 where that changes nothing) and rhoBar =
-    // rho there (the channel sum, in the walk's transport mode; 0 elsewhere), so densities()
-    // evaluates only the other side's rho_hat there. The path tracer needs none of it.
+    // walk neighbours with its own subpath's roughness (1 where that changes nothing) and the
+    // pair's geometry (OpsrState::pair), from which densities() has the other side's ratio; where
+    // the BSDF has no pair geometry, rhoBar = rho there instead (the channel sum, in the walk's
+    // transport mode; 0 elsewhere), and densities() evaluates the other side's rho_hat. The path
+    // tracer needs none of it.
     // keep (OpsrState): the product of Eq. 11 over the subpath before this vertex (constant gamma).
     void start(PathVertex& v) const {
         v.regState.accumulated = 0.f;
