@@ -258,6 +258,37 @@ struct PathView {
     }
 };
 
+// Eq. 11's accumulated roughness at each inner vertex x_j of a technique's path, from the light
+// (over x_1..x_j) or from the camera (x_{n-2}..x_j), for one constant gamma: the products of
+// (1 - gamma a_i) running from each side's end in the order accumulateWindow multiplies them (so
+// the same floats as requestFrom's), for every inner vertex at once, when first asked (most
+// connections ask none): O(n) per path in place of O(n) per vertex asked.
+class SideRoughness {
+public:
+    SideRoughness(const PathView& x, float gamma) : x_(x), gamma_(gamma) {}
+    // g before the request's other steps (Opsr::requestFor) at inner x_j from `side`.
+    float at(int j, End side) {
+        if (!filled_) fill();
+        const bool first = side == End::Light ? j == 1 : j == x_.n - 2;  // (one surface vertex: Eq. 6)
+        const float a = x_[j].roughness, keep = side == End::Light ? keepL_[j] : keepC_[j];
+        return first ? a : a + (1.f - a) * (1.f - keep);
+    }
+
+private:
+    void fill() {
+        const int n = x_.n;
+        keepL_[1] = 1.f;
+        for (int i = 2; i <= n - 2; ++i) keepL_[i] = keepL_[i - 1] * (1.f - gamma_ * x_[i - 1].roughness);
+        keepC_[n - 2] = 1.f;
+        for (int i = n - 3; i >= 1; --i) keepC_[i] = keepC_[i + 1] * (1.f - gamma_ * x_[i + 1].roughness);
+        filled_ = true;
+    }
+    const PathView& x_;
+    float gamma_;
+    bool filled_ = false;
+    std::array<float, kMaxPathVertices> keepL_, keepC_;  // over x_1..x_{j-1}; over x_{n-2}..x_{j+1}
+};
+
 }  // namespace
 
 float Opsr::requestFrom(const Technique& tech, int j, End side) const {
@@ -279,6 +310,8 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
     if (samplableUnregularised(tech, set_, merging_)) return best;
     const PathView x(tech);
     const int n = x.n;
+    const bool constantGamma = !settings_.attenuation.table;
+    SideRoughness sides(x, settings_.attenuation.gamma);  // (requestFrom in O(1), as in densities)
     int bestCount = 0;
     for (int k = 1; k < n; ++k) {
         if (!allowsTechnique(set_, k, n - k)) continue;
@@ -289,7 +322,11 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
         for (int j : {k - 1, k}) {
             const PathVertex& v = x[j];
             if (plainConnectionEnd(v)) continue;
-            const float g = smooth(v) ? requestFrom(tech, j, j == k - 1 ? End::Light : End::Camera) : -1.f;
+            const End side = j == k - 1 ? End::Light : End::Camera;
+            // (a smooth vertex is inner and mayChange: requestFrom's first answers do not apply)
+            const float g = !smooth(v)       ? -1.f
+                            : constantGamma ? requestFor(v, sides.at(j, side))
+                                            : requestFrom(tech, j, side);
             if (g < 0.f) {
                 possible = false;
                 break;
@@ -423,31 +460,12 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
     // and rho from the walk (SubpathState); the other side's rho_hat is evaluated in the walk's
     // mode and directions, over that rho.
     const int lc = x.lightCount;
-    // With one constant gamma (Eq. 11), the products of (1 - gamma a_i) over each side's vertices
-    // before x_j, running from each side's end in the order accumulateWindow multiplies them (so
-    // the same floats as requestFrom's), for every inner vertex at once: O(n) per connection in
-    // place of O(n) per vertex asked. keepL[j] over x_1..x_{j-1}, keepC[j] over x_{n-2}..x_{j+1}.
-    // (Computed when first asked: most connections ask none.)
+    // requestFrom(tech, j, side) for a glossy inner x_j, in O(1) where gamma is constant.
     const bool constantGamma = !settings_.attenuation.table;
-    std::array<float, kMaxPathVertices> keepL, keepC;
-    bool kept = false;
-    // requestFrom(tech, j, side), from those products where gamma is constant.
+    SideRoughness sides(x, settings_.attenuation.gamma);
     auto requestAt = [&](const PathVertex& v, int j, End side) -> float {
-        if (!constantGamma) return requestFrom(tech, j, side);
-        if (!kept) {
-            const float gamma = settings_.attenuation.gamma;
-            keepL[1] = 1.f;
-            for (int i = 2; i <= n - 2; ++i) keepL[i] = keepL[i - 1] * (1.f - gamma * x[i - 1].roughness);
-            keepC[n - 2] = 1.f;
-            for (int i = n - 3; i >= 1; --i) keepC[i] = keepC[i + 1] * (1.f - gamma * x[i + 1].roughness);
-            kept = true;
-        }
-        const bool first = side == End::Light ? j == 1 : j == n - 2;  // (a subpath of one surface vertex, Eq. 6)
-        const float a = v.roughness, keep = side == End::Light ? keepL[j] : keepC[j];
-        return requestFor(v, first ? a : a + (1.f - a) * (1.f - keep));
+        return constantGamma ? requestFor(v, sides.at(j, side)) : requestFrom(tech, j, side);
     };
-    // The ratio at a glossy x_j with the other side's roughness, evaluated (a lambda of its own,
-    // so that ratio() below is small enough to be inlined into the loop).
     auto otherSide = [&](const PathVertex& v, int j, End side, bool onLightWalk, bool onCameraWalk) -> float {
         const float g = requestAt(v, j, side);
         if (g < 0.f) return 1.f;
