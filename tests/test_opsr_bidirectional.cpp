@@ -260,6 +260,9 @@ TEST_CASE("OPSR in BPT and VCM: MIS weights equal a brute-force evaluation (Eq. 
             };
             forEachConnection(scene, op, y.data(), ny, z.data(), nz, cam, ws,
                               [&](int s, int t, const PathVertex* zz, const Connection& c) {
+                                  // (the policy's O(1) samplability, from the walks' records)
+                                  const Technique tech{s ? y.data() : nullptr, s, zz, t};
+                                  CHECK(op.samplable(tech) == samplableUnregularised(tech, cfg.set, merging));
                                   std::vector<const PathVertex*> xs;
                                   for (int k = 0; k < s; ++k) xs.push_back(&y[k]);
                                   for (int k = t - 1; k >= 0; --k) xs.push_back(&zz[k]);

@@ -258,35 +258,41 @@ struct PathView {
     }
 };
 
-// Eq. 11's accumulated roughness at each inner vertex x_j of a technique's path, from the light
-// (over x_1..x_j) or from the camera (x_{n-2}..x_j), for one constant gamma: the products of
-// (1 - gamma a_i) running from each side's end in the order accumulateWindow multiplies them (so
-// the same floats as requestFrom's), for every inner vertex at once, when first asked (most
-// connections ask none): O(n) per path in place of O(n) per vertex asked.
+// Eq. 11's accumulated roughness at an inner vertex x_j of a technique's path, from the light (over
+// x_1..x_j) or from the camera (x_{n-2}..x_j), for one constant gamma, without requestFrom's loop:
+// on x_j's own walk its running product (OpsrState::keep); across the connection, the other
+// walk's product through its last vertex times the factors of the vertices in between. The
+// factors are multiplied in the order accumulateWindow multiplies them, so the floats are
+// requestFrom's.
 class SideRoughness {
 public:
     SideRoughness(const PathView& x, float gamma) : x_(x), gamma_(gamma) {}
     // g before the request's other steps (Opsr::requestFor) at inner x_j from `side`.
-    float at(int j, End side) {
-        if (!filled_) fill();
-        const bool first = side == End::Light ? j == 1 : j == x_.n - 2;  // (one surface vertex: Eq. 6)
-        const float a = x_[j].roughness, keep = side == End::Light ? keepL_[j] : keepC_[j];
-        return first ? a : a + (1.f - a) * (1.f - keep);
+    float at(int j, End side) const {
+        const int n = x_.n, lc = x_.lightCount;
+        const float a = x_[j].roughness;
+        if (side == End::Light ? j == 1 : j == n - 2) return a;  // one surface vertex (Eq. 6)
+        float keep = 1.f;
+        if (side == End::Light && j < lc) {
+            keep = x_[j].regState.opsr.keep;
+        } else if (side == End::Camera && j >= lc) {
+            keep = x_[j].regState.opsr.keep;
+        } else if (side == End::Light) {  // x_j on the camera walk: x_1..x_{lc-1}, then x_lc..x_{j-1}
+            int i = 1;
+            if (lc >= 2) keep = factor(lc - 1, x_[lc - 1].regState.opsr.keep), i = lc;
+            for (; i < j; ++i) keep = factor(i, keep);
+        } else {  // x_j on the light walk: x_{n-2}..x_lc, then x_{lc-1}..x_{j+1}
+            int i = n - 2;
+            if (lc <= n - 2) keep = factor(lc, x_[lc].regState.opsr.keep), i = lc - 1;
+            for (; i > j; --i) keep = factor(i, keep);
+        }
+        return a + (1.f - a) * (1.f - keep);
     }
 
 private:
-    void fill() {
-        const int n = x_.n;
-        keepL_[1] = 1.f;
-        for (int i = 2; i <= n - 2; ++i) keepL_[i] = keepL_[i - 1] * (1.f - gamma_ * x_[i - 1].roughness);
-        keepC_[n - 2] = 1.f;
-        for (int i = n - 3; i >= 1; --i) keepC_[i] = keepC_[i + 1] * (1.f - gamma_ * x_[i + 1].roughness);
-        filled_ = true;
-    }
+    float factor(int i, float keep) const { return keep * (1.f - gamma_ * x_[i].roughness); }
     const PathView& x_;
     float gamma_;
-    bool filled_ = false;
-    std::array<float, kMaxPathVertices> keepL_, keepC_;  // over x_1..x_{j-1}; over x_{n-2}..x_{j+1}
 };
 
 }  // namespace
@@ -305,9 +311,26 @@ float Opsr::requestFrom(const Technique& tech, int j, End side) const {
     return requestWith(v, a.data(), count);
 }
 
+bool Opsr::samplable(const Technique& tech) const {
+    const int lc = tech.s;
+    if (set_ != TechniqueSet::Bidirectional || tech.photon || lc < 1 || tech.t < 1 || !tech.y)
+        return samplableUnregularised(tech, set_, merging_);
+    // Every connection k and the emitter hit are techniques: a path is samplable where its light
+    // can be hit, where two neighbouring vertices are plain connection ends (on either subpath,
+    // or the joining pair), or (VCM) where a vertex after the endpoints is one.
+    if (tech.y[0].light && tech.y[0].light->isHittable()) return true;
+    const PathVertex &a = tech.y[lc - 1], &b = tech.z[tech.t - 1];
+    const bool aPlain = plainConnectionEnd(a), bPlain = plainConnectionEnd(b);
+    const OpsrState &sa = a.regState.opsr, &sb = b.regState.opsr;
+    if (sa.plainPairBefore || sb.plainPairBefore || (sa.previousPlain && aPlain) || (sb.previousPlain && bPlain) ||
+        (aPlain && bPlain))
+        return true;
+    return merging_ && (sa.plainInnerBefore || sb.plainInnerBefore || (a.kind == VertexKind::Surface && aPlain) ||
+                        (b.kind == VertexKind::Surface && bPlain));
+}
 Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
     SmoothChoice best;
-    if (samplableUnregularised(tech, set_, merging_)) return best;
+    if (samplable(tech)) return best;
     const PathView x(tech);
     const int n = x.n;
     const bool constantGamma = !settings_.attenuation.table;

@@ -184,6 +184,9 @@ public:
         float g[2] = {-1.f, -1.f};
     };
     SmoothChoice chooseSmooth(const Technique& tech) const;
+    // (5) samplableUnregularised(tech, the running integrator's techniques), in O(1) from the
+    // walks' records where every connection is a technique (BPT, VCM).
+    bool samplable(const Technique& tech) const;
 
     // The seam (regularizer.h).
     // The regularised BSDF's own densities (Technique::pdfLight, pdfCamera) are read only by the
@@ -230,6 +233,7 @@ public:
         v.regState.ratio = 1.f;
         v.regState.rhoBar = 0.f;
         v.regState.opsr.keep = 1.f;
+        v.regState.opsr.plainPairBefore = v.regState.opsr.plainInnerBefore = v.regState.opsr.previousPlain = false;
     }
     void extend(PathVertex& v, PathVertex& prev) const {
         v.regState.accumulated = prev.regState.accumulated + (glossy(v) ? 1.f : 0.f);
@@ -238,6 +242,12 @@ public:
         v.regState.opsr.keep = prev.kind == VertexKind::Surface
                                    ? prev.regState.opsr.keep * (1.f - settings_.attenuation.gamma * prev.roughness)
                                    : 1.f;
+        // (prev is complete: the walk has sampled its way out of it)
+        const OpsrState& p = prev.regState.opsr;
+        const bool prevPlain = plainConnectionEnd(prev);
+        v.regState.opsr.plainPairBefore = p.plainPairBefore || (p.previousPlain && prevPlain);
+        v.regState.opsr.plainInnerBefore = p.plainInnerBefore || (prev.kind == VertexKind::Surface && prevPlain);
+        v.regState.opsr.previousPlain = prevPlain;
         if (settings_.bidirectional && glossy(prev) && prev.depth >= 1) walkRatio(prev, -v.wo);
     }
     // Smooth surface vertices too where a connection may end there: whether the request makes one

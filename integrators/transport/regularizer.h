@@ -132,6 +132,10 @@ struct OpsrState {
     // one, in the order of Eq. 11's product (opsr.h (2)), so that a vertex's accumulated roughness
     // is known without a loop over its subpath.
     float keep;
+    // Over the subpath before this vertex (Opsr::samplable): whether two neighbouring vertices are
+    // plain connection ends, whether one after the endpoint is, and whether the one before this
+    // is (so that the next vertex can tell its pair).
+    bool plainPairBefore, plainInnerBefore, previousPlain;
 };
 
 // Per-subpath state of a regulariser on every vertex (PathVertex::regState; the comments give
