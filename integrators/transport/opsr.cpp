@@ -313,7 +313,7 @@ float Opsr::requestFrom(const Technique& tech, int j, End side) const {
 
 bool Opsr::samplable(const Technique& tech) const {
     const int lc = tech.s;
-    if (set_ != TechniqueSet::Bidirectional || tech.photon || lc < 1 || tech.t < 1 || !tech.y)
+    if (set_ != TechniqueSet::Bidirectional || !smoothEnds_ || tech.photon || lc < 1 || tech.t < 1 || !tech.y)
         return samplableUnregularised(tech, set_, merging_);
     // Every connection k and the emitter hit are techniques: a path is samplable where its light
     // can be hit, where two neighbouring vertices are plain connection ends (on either subpath,

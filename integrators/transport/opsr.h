@@ -242,13 +242,16 @@ public:
         v.regState.opsr.keep = prev.kind == VertexKind::Surface
                                    ? prev.regState.opsr.keep * (1.f - settings_.attenuation.gamma * prev.roughness)
                                    : 1.f;
+        if (!settings_.bidirectional) return;
+        if (glossy(prev) && prev.depth >= 1) walkRatio(prev, -v.wo);
+        // samplable()'s flags, where it may be asked: with smooth connection ends.
         // (prev is complete: the walk has sampled its way out of it)
+        if (!smoothEnds_) return;
         const OpsrState& p = prev.regState.opsr;
         const bool prevPlain = plainConnectionEnd(prev);
         v.regState.opsr.plainPairBefore = p.plainPairBefore || (p.previousPlain && prevPlain);
         v.regState.opsr.plainInnerBefore = p.plainInnerBefore || (prev.kind == VertexKind::Surface && prevPlain);
         v.regState.opsr.previousPlain = prevPlain;
-        if (settings_.bidirectional && glossy(prev) && prev.depth >= 1) walkRatio(prev, -v.wo);
     }
     // Smooth surface vertices too where a connection may end there: whether the request makes one
     // rough depends on the subpath (select decides). BPT and VCM regularise a smooth end only on
