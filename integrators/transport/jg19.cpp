@@ -56,10 +56,7 @@ float Jg19::lightBound(const Light& light) {
 
 float Jg19::ratioAt(const PathVertex& v, const Vec3& wi) const {
     if (!detail::requestCanChange(v, radiance_)) return 1.f;
-    const SurfaceBsdf b = v.bsdf();
-    if (const PairGeometry pair = b.pairGeometry(v.wo, wi); pair.available()) return v.bxdf->requestRatio(pair, radiance_.reg);
-    return detail::regularisedRatio(b.eval(v.wo, wi, radiance_.valueOnlyCopy()).f,
-                                    b.eval(v.wo, wi, kRadianceContext.valueOnlyCopy()).f);
+    return detail::regularisedRatioAt(v.bsdf(), v.wo, wi, radiance_);
 }
 
 namespace {

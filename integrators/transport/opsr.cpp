@@ -259,41 +259,30 @@ struct PathView {
 };
 
 // Eq. 11's accumulated roughness at an inner vertex x_j of a technique's path, from the light (over
-// x_1..x_j) or from the camera (x_{n-2}..x_j), for one constant gamma, without requestFrom's loop:
-// on x_j's own walk its running product (OpsrState::keep); across the connection, the other
-// walk's product through its last vertex times the factors of the vertices in between. The
-// factors are multiplied in the order accumulateWindow multiplies them, so the floats are
-// requestFrom's.
-class SideRoughness {
-public:
-    SideRoughness(const PathView& x, float gamma) : x_(x), gamma_(gamma) {}
-    // g before the request's other steps (Opsr::requestFor) at inner x_j from `side`.
-    float at(int j, End side) const {
-        const int n = x_.n, lc = x_.lightCount;
-        const float a = x_[j].roughness;
-        if (side == End::Light ? j == 1 : j == n - 2) return a;  // one surface vertex (Eq. 6)
-        float keep = 1.f;
-        if (side == End::Light && j < lc) {
-            keep = x_[j].regState.opsr.keep;
-        } else if (side == End::Camera && j >= lc) {
-            keep = x_[j].regState.opsr.keep;
-        } else if (side == End::Light) {  // x_j on the camera walk: x_1..x_{lc-1}, then x_lc..x_{j-1}
-            int i = 1;
-            if (lc >= 2) keep = factor(lc - 1, x_[lc - 1].regState.opsr.keep), i = lc;
-            for (; i < j; ++i) keep = factor(i, keep);
-        } else {  // x_j on the light walk: x_{n-2}..x_lc, then x_{lc-1}..x_{j+1}
-            int i = n - 2;
-            if (lc <= n - 2) keep = factor(lc, x_[lc].regState.opsr.keep), i = lc - 1;
-            for (; i > j; --i) keep = factor(i, keep);
-        }
-        return a + (1.f - a) * (1.f - keep);
+// x_1..x_j) or from the camera (x_{n-2}..x_j), for one constant gamma, without a loop over the
+// subpath: on x_j's own walk its running product (OpsrState::keep); across the connection, the
+// other walk's product through its last vertex times the factors of the vertices in between.
+// The factors are multiplied in the order accumulateWindow multiplies them, so the floats are
+// those of accumulatedRoughness over the list.
+float accumulatedFrom(const PathView& x, float gamma, int j, End side) {
+    const int n = x.n, lc = x.lightCount;
+    const float a = x[j].roughness;
+    if (side == End::Light ? j == 1 : j == n - 2) return a;  // one surface vertex (Eq. 6)
+    auto factor = [&](int i, float keep) { return keep * (1.f - gamma * x[i].roughness); };
+    float keep = 1.f;
+    if ((side == End::Light) == (j < lc)) {  // x_j on the walk from that side
+        keep = x[j].regState.opsr.keep;
+    } else if (side == End::Light) {  // x_j on the camera walk: x_1..x_{lc-1}, then x_lc..x_{j-1}
+        int i = 1;
+        if (lc >= 2) keep = factor(lc - 1, x[lc - 1].regState.opsr.keep), i = lc;
+        for (; i < j; ++i) keep = factor(i, keep);
+    } else {  // x_j on the light walk: x_{n-2}..x_lc, then x_{lc-1}..x_{j+1}
+        int i = n - 2;
+        if (lc <= n - 2) keep = factor(lc, x[lc].regState.opsr.keep), i = lc - 1;
+        for (; i > j; --i) keep = factor(i, keep);
     }
-
-private:
-    float factor(int i, float keep) const { return keep * (1.f - gamma_ * x_[i].roughness); }
-    const PathView& x_;
-    float gamma_;
-};
+    return a + (1.f - a) * (1.f - keep);
+}
 
 }  // namespace
 
@@ -301,7 +290,8 @@ float Opsr::requestFrom(const Technique& tech, int j, End side) const {
     const PathView x(tech);
     const PathVertex& v = x[j];
     if (j < 1 || j > x.n - 2 || !mayChange(v)) return -1.f;
-    if (settings_.attenuation.table && opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return boundOnly(v);
+    if (!settings_.attenuation.table) return requestFor(v, accumulatedFrom(x, settings_.attenuation.gamma, j, side));
+    if (opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return boundOnly(v);
     std::array<float, kMaxPathVertices> a;
     int count = 0;
     if (side == End::Light)
@@ -333,8 +323,6 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
     if (samplable(tech)) return best;
     const PathView x(tech);
     const int n = x.n;
-    const bool constantGamma = !settings_.attenuation.table;
-    SideRoughness sides(x, settings_.attenuation.gamma);  // (requestFrom in O(1), as in densities)
     int bestCount = 0;
     for (int k = 1; k < n; ++k) {
         if (!allowsTechnique(set_, k, n - k)) continue;
@@ -345,11 +333,7 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
         for (int j : {k - 1, k}) {
             const PathVertex& v = x[j];
             if (plainConnectionEnd(v)) continue;
-            const End side = j == k - 1 ? End::Light : End::Camera;
-            // (a smooth vertex is inner and mayChange: requestFrom's first answers do not apply)
-            const float g = !smooth(v)       ? -1.f
-                            : constantGamma ? requestFor(v, sides.at(j, side))
-                                            : requestFrom(tech, j, side);
+            const float g = smooth(v) ? requestFrom(tech, j, j == k - 1 ? End::Light : End::Camera) : -1.f;
             if (g < 0.f) {
                 possible = false;
                 break;
@@ -483,14 +467,8 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
     // and rho from the walk (SubpathState); the other side's rho_hat is evaluated in the walk's
     // mode and directions, over that rho.
     const int lc = x.lightCount;
-    // requestFrom(tech, j, side) for a glossy inner x_j, in O(1) where gamma is constant.
-    const bool constantGamma = !settings_.attenuation.table;
-    SideRoughness sides(x, settings_.attenuation.gamma);
-    auto requestAt = [&](const PathVertex& v, int j, End side) -> float {
-        return constantGamma ? requestFor(v, sides.at(j, side)) : requestFrom(tech, j, side);
-    };
     auto otherSide = [&](const PathVertex& v, int j, End side, bool onLightWalk, bool onCameraWalk) -> float {
-        const float g = requestAt(v, j, side);
+        const float g = requestFrom(tech, j, side);
         if (g < 0.f) return 1.f;
         // (the ratio does not depend on the mode or the order of the pair: PairGeometry)
         if (onLightWalk || onCameraWalk) {
@@ -500,14 +478,9 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
             const Color hat = v.bsdf().eval(v.wo, wi, contextFor(mode, g).valueOnlyCopy()).f;
             return detail::regularisedRatio(hat.x + hat.y + hat.z, v.regState.rhoBar);
         }
-        const TransportMode mode = modeAt(side);
         const Vec3 toLight = x.direction(j, j - 1), toCamera = x.direction(j, j + 1);
         const Vec3 wo = side == End::Light ? toLight : toCamera, wi = side == End::Light ? toCamera : toLight;
-        const SurfaceBsdf b = v.bsdf();
-        if (const PairGeometry pair = b.pairGeometry(wo, wi); pair.available())
-            return v.bxdf->requestRatio(pair, contextFor(mode, g).reg);
-        return detail::regularisedRatio(b.eval(wo, wi, contextFor(mode, g).valueOnlyCopy()).f,
-                                        b.eval(wo, wi, BsdfContext(mode).valueOnlyCopy()).f);
+        return detail::regularisedRatioAt(v.bsdf(), wo, wi, contextFor(modeAt(side), g));
     };
     // R at x_j with `side`'s roughness. The loop asks twice per technique, mostly at endpoints
     // and vertices that are not glossy, answered here without a call (measured: -1.8%

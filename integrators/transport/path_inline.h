@@ -25,6 +25,12 @@ inline float regularisedRatio(float h, float p) {
 inline float regularisedRatio(const Color& hat, const Color& plain) {
     return regularisedRatio(hat.x + hat.y + hat.z, plain.x + plain.y + plain.z);
 }
+// The same for b between wo and wi under ctx's request: from the pair's geometry where the BSDF
+// has that form (bsdf.h, PairGeometry: no evaluation), else from its two value-only evaluations.
+inline float regularisedRatioAt(const SurfaceBsdf& b, const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) {
+    if (const PairGeometry pair = b.pairGeometry(wo, wi); pair.available()) return b.bxdf().requestRatio(pair, ctx.reg);
+    return regularisedRatio(b.eval(wo, wi, ctx.valueOnlyCopy()).f, b.eval(wo, wi, plainContext(ctx.mode).valueOnlyCopy()).f);
+}
 
 // The MIS sum (see misSumGeneral in path.cpp) for the path tracer's two techniques (s = 0: emitter
 // hit, s = 1: NEE), which compare only x_0's two densities: the terms the plain sum adds for
