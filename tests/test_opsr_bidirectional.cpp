@@ -310,6 +310,59 @@ double meanOf(const Scene& scene, RenderSettings s, RenderStats& st) {
 
 }  // namespace
 
+TEST_CASE("OPSR in BPT: a connection asks only whether the smooth-vertex choice of its path is its own (the plain choice's answer)", "[opsr][bidirectional][select]") {
+    // choosesOwnTechnique (selectBidirectional's question) against chooseSmooth (the plain form:
+    // the whole path's choice), on every split into a connection of the paths that join a prefix of
+    // a light walk to a prefix of a camera walk (visible or not: both read the records alone), in
+    // the box with the point light inside the glass sphere and the mirror ball, and in
+    // caustic-mirror.xml without its back wall, where few paths are samplable (L S+ D (S D)* S E).
+    // The answer and, where it is the split's own, the smooth ends and their roughnesses must be
+    // the same. Counted: splits whose choice is their own, splits whose path another split takes,
+    // and samplable paths (no choice).
+    for (const bool box : {true, false}) {
+        Scene scene = box ? Scene(mixedSceneWithPointInGlass(16)) : causticMirror(false);
+        const int res = box ? 16 : 32;
+        const reg::Opsr op = opsrFor(TechniqueSet::Bidirectional, false, 0.3f);
+        WalkStats ws;
+        std::array<PathVertex, kMaxPathVertices> y, z;
+        int own = 0, other = 0, none = 0;
+        for (uint64_t i = 0; i < 400; ++i) {
+            Rng rng(i, 91);
+            const int ny = lightWalk(scene, op, rng, 6, 100, y.data(), ws);
+            const int nz = cameraWalk(scene, op, Vec2(rng.uniform() * res, rng.uniform() * res), rng, 6, 100, z.data(), ws);
+            for (int s = 1; s <= ny; ++s)
+                for (int t = 1; t <= nz; ++t) {
+                    HandPath h;
+                    for (int k = 0; k < s; ++k) h.x.push_back(y[k]);
+                    for (int k = t - 1; k >= 0; --k) h.x.push_back(z[k]);
+                    for (int k = 1; k + 1 <= s + t; ++k) {
+                        const Technique tech = h.technique(op, k);
+                        reg::Opsr::SmoothChoice mine;
+                        const bool chosen = op.choosesOwnTechnique(tech, mine);
+                        const reg::Opsr::SmoothChoice plain = op.chooseSmooth(tech);
+                        INFO("box " << box << " walks " << i << " s=" << s << " t=" << t << " split " << k
+                                    << " plain choice " << plain.technique);
+                        CHECK(chosen == (plain.technique == k));
+                        if (chosen) {
+                            ++own;
+                            for (int m = 0; m < 2; ++m) {
+                                CHECK(mine.ends[m] == plain.ends[m]);
+                                CHECK(mine.g[m] == plain.g[m]);
+                            }
+                        } else {
+                            ++(plain.technique >= 0 ? other : none);
+                        }
+                    }
+                }
+        }
+        INFO("box " << box << ": " << own << " splits chose themselves, " << other << " another split, " << none
+                    << " samplable");
+        CHECK(own > 200);
+        CHECK(other > 1000);
+        CHECK(none > 1000);
+    }
+}
+
 TEST_CASE("OPSR in BPT renders the caustic seen in a mirror, as the path tracer's regularised estimate of it", "[opsr][bidirectional][render]") {
     // Without its back wall, every path of caustic-mirror.xml is L S+ D (S D)* S E: no two
     // neighbouring non-smooth vertices, so plain BPT renders nothing, and BPT with OPSR

@@ -318,38 +318,57 @@ bool Opsr::samplable(const Technique& tech) const {
     return merging_ && (sa.plainInnerBefore || sb.plainInnerBefore || (a.kind == VertexKind::Surface && aPlain) ||
                         (b.kind == VertexKind::Surface && bPlain));
 }
+bool Opsr::smoothCandidate(const Technique& tech, int k, SmoothChoice& c, int& count) const {
+    const PathView x(tech);
+    c = SmoothChoice{};
+    c.technique = k;
+    count = 0;
+    for (int j : {k - 1, k}) {
+        const PathVertex& v = x[j];
+        if (plainConnectionEnd(v)) continue;
+        const float g = smooth(v) ? requestFrom(tech, j, j == k - 1 ? End::Light : End::Camera) : -1.f;
+        if (g < 0.f) return false;  // (NaN: a candidate, refused later by (7))
+        c.ends[count] = j;
+        c.g[count++] = g;
+    }
+    return true;
+}
+
 Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
     SmoothChoice best;
     if (samplable(tech)) return best;
-    const PathView x(tech);
-    const int n = x.n;
+    const int n = PathView(tech).n;
     int bestCount = 0;
     for (int k = 1; k < n; ++k) {
         if (!allowsTechnique(set_, k, n - k)) continue;
         SmoothChoice c;
-        c.technique = k;
         int count = 0;
-        bool possible = true;
-        for (int j : {k - 1, k}) {
-            const PathVertex& v = x[j];
-            if (plainConnectionEnd(v)) continue;
-            const float g = smooth(v) ? requestFrom(tech, j, j == k - 1 ? End::Light : End::Camera) : -1.f;
-            if (g < 0.f) {
-                possible = false;
-                break;
-            }
-            c.ends[count] = j;
-            c.g[count++] = g;
-        }
         // The fewest smooth ends, then the one nearest the light (the first k). (On a path no
         // technique samples every candidate has a smooth end, so the first with one is the choice.)
-        if (possible && (best.technique < 0 || count < bestCount)) {
+        if (smoothCandidate(tech, k, c, count) && (best.technique < 0 || count < bestCount)) {
             best = c;
             bestCount = count;
             if (count == 1) break;
         }
     }
     return best;
+}
+
+bool Opsr::choosesOwnTechnique(const Technique& tech, SmoothChoice& choice) const {
+    const int n = PathView(tech).n, s = tech.s;
+    int count = 0;
+    if (!allowsTechnique(set_, s, n - s) || !smoothCandidate(tech, s, choice, count) || samplable(tech)) return false;
+    // (count >= 1: with no smooth end the technique is a plain one, and the path samplable.)
+    // chooseSmooth's order: (count, k) lexicographic. Nearer the light, any candidate with as few
+    // smooth ends wins; further, only one with fewer (so none where s has one).
+    for (int k = 1; k < n; ++k) {
+        if (k == s || !allowsTechnique(set_, k, n - k)) continue;
+        if (k > s && count == 1) break;
+        SmoothChoice c;
+        int other = 0;
+        if (smoothCandidate(tech, k, c, other) && (other < count || (other == count && k < s))) return false;
+    }
+    return true;
 }
 
 bool Opsr::selectRequest(Technique& tech) const {
@@ -390,8 +409,8 @@ bool Opsr::selectBidirectional(Technique& tech) const {
     const PathVertex &a = tech.y[tech.s - 1], &b = tech.z[tech.t - 1];
     int m = 0;
     if (smooth(a) || smooth(b)) {
-        const SmoothChoice c = chooseSmooth(tech);
-        if (c.technique != tech.s) return false;  // samplable, or another technique's path
+        SmoothChoice c;
+        if (!choosesOwnTechnique(tech, c)) return false;  // samplable, or another technique's path
         for (int i = 0; i < 2; ++i)
             if (c.ends[i] >= 0) {
                 tech.regularised[m] = c.ends[i];

@@ -184,6 +184,12 @@ public:
         float g[2] = {-1.f, -1.f};
     };
     SmoothChoice chooseSmooth(const Technique& tech) const;
+    // Whether chooseSmooth(tech).technique is tech.s itself (then `choice` is that choice), from the
+    // techniques that could be preferred to it only: none where tech.s cannot make its smooth ends
+    // rough, those nearer the light where it has one smooth end, and where it has two the others
+    // with one, or two and nearer the light. The connection's own question (selectBidirectional);
+    // tests compare it with chooseSmooth, the plain form, on every split of every path.
+    bool choosesOwnTechnique(const Technique& tech, SmoothChoice& choice) const;
     // (5) samplableUnregularised(tech, the running integrator's techniques), in O(1) from the
     // walks' records where every connection is a technique (BPT, VCM).
     bool samplable(const Technique& tech) const;
@@ -298,6 +304,10 @@ private:
     bool selectBidirectional(Technique& tech) const;
     void densitiesBidirectional(const Technique& tech, PathPdfs& pdfs) const;
     bool emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) const;
+    // chooseSmooth's candidate k (the connection x_{k-1} - x_k): false where one of its ends is
+    // neither a plain connection end nor a smooth vertex the request makes rough; else its smooth
+    // ends and their roughnesses in c (c.technique = k) and their number in count.
+    bool smoothCandidate(const Technique& tech, int k, SmoothChoice& c, int& count) const;
     // The request for the roughnesses a[0..count-1] of a subpath's surface vertices (a[count-1]
     // that of v, its last).
     float requestWith(const PathVertex& v, const float* a, int count) const;
