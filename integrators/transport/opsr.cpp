@@ -356,14 +356,9 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
 
 bool Opsr::choosesOwnTechnique(const Technique& tech, SmoothChoice& choice) const {
     const int n = PathView(tech).n, s = tech.s;
-    // The common refusal, from the ends' own walks: a smooth end with no rough vertex before it on
-    // its walk (Eq. 11's running product 1, constant gamma) accumulates its own roughness 0, which
-    // no request raises without JG19's bound (requestFor), so this technique cannot make it rough
-    // (smoothCandidate's answer, without its requestFrom).
-    if (!settings_.attenuation.table && tau_ <= 0.f) {
-        auto unchanged = [](const PathVertex& v) { return smooth(v) && v.roughness == 0.f && v.regState.opsr.keep == 1.f; };
-        if (unchanged(tech.y[s - 1]) || unchanged(tech.z[tech.t - 1])) return false;
-    }
+    // The common refusal, from the ends' own walks (smoothCandidate's answer without its
+    // requestFrom; connect asks connectible() first, which refuses these ends already).
+    if (unchangedByOwnWalk(tech.y[s - 1]) || unchangedByOwnWalk(tech.z[tech.t - 1])) return false;
     int count = 0;
     if (!allowsTechnique(set_, s, n - s) || !smoothCandidate(tech, s, choice, count) || samplable(tech)) return false;
     // (count >= 1: with no smooth end the technique is a plain one, and the path samplable.)

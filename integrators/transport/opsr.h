@@ -263,7 +263,20 @@ public:
     // rough depends on the subpath (select decides). BPT and VCM regularise a smooth end only on
     // paths no technique samples, and with the emitter hit among the techniques and every light
     // hittable every path has one (beginIteration).
-    bool connectible(const PathVertex& v) const { return v.connectible() || (smoothEnds_ && smooth(v)); }
+    // (A smooth vertex no connection at it can make rough is left out: its techniques would be
+    // refused by select() after their light sample or walk set-up.)
+    bool connectible(const PathVertex& v) const {
+        return v.connectible() || (smoothEnds_ && smooth(v) && !unchangedByOwnWalk(v));
+    }
+    // A smooth vertex whose own walk has no rough vertex before it (Eq. 11's running product 1,
+    // one constant gamma) accumulates its own roughness 0 from that walk's side, which no request
+    // raises without JG19's bound (requestFor). A connection ending there takes that side's
+    // roughness (the path tracer's next-event estimation; BPT's and VCM's technique of its own
+    // ends, choosesOwnTechnique), so none can make it rough.
+    bool unchangedByOwnWalk(const PathVertex& v) const {
+        return !settings_.attenuation.table && tau_ <= 0.f && smooth(v) && v.roughness == 0.f &&
+               v.regState.opsr.keep == 1.f;
+    }
     bool mergeable(const PathVertex& v) const { return v.connectible(); }
     // The common answers inline: an emitter hit (the path tracer: through a vertex no request can
     // change; BPT and VCM: any) or a connection whose vertices no request can change (mayChange)
