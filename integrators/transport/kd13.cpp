@@ -15,6 +15,7 @@ Kd13::Kd13(const Kd13Settings& settings) : settings_(settings) {
         throw std::invalid_argument("KD13: the initial radius r0 must be finite, got " + std::to_string(settings.r0));
     r0_ = settings.r0 > 0.0 ? settings.r0 : 0.01;  // (beginIteration: 1% of the geometry's radius)
     farLength_ = 2.0;
+    setRadii();
 }
 
 void Kd13::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) {
@@ -22,6 +23,7 @@ void Kd13::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) 
     const double radius = double(scene.geometryRadius());
     r0_ = settings_.r0 > 0.0 ? settings_.r0 : 0.01 * radius;  // Sec. 6: 1% of the scene's bounding radius
     farLength_ = radius > 0.0 ? 2.0 * radius : 1.0;
+    setRadii();
     set_ = cfg.set;
     merging_ = cfg.merging;
     deltaLights_.clear();
@@ -35,9 +37,11 @@ double Kd13::lambda(int mollified) const {
     return mollified >= 2 ? 1.0 / 12.0 : 1.0 / 6.0;  // Sec. 5.1
 }
 
-double Kd13::radius(int mollified) const {
-    return r0_ * std::pow(double(std::max<uint64_t>(n_, 1)), -lambda(mollified));
+void Kd13::setRadii() {
+    for (int m : {1, 2}) radii_[m - 1] = r0_ * std::pow(double(std::max<uint64_t>(n_, 1)), -lambda(m));
 }
+
+double Kd13::radius(int mollified) const { return radii_[mollified >= 2 ? 1 : 0]; }
 
 double Kd13::coneAngle(int mollified, double length) const {
     const double l = std::isinf(length) ? farLength_ : length;  // (a NaN stays NaN: regularizer.h (7))

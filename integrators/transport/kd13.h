@@ -85,8 +85,8 @@ public:
     void beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg);
     // Tests without a scene: the iteration, r_0 and the length used for a segment to infinity,
     // and the running integrator's techniques.
-    void setIteration(uint64_t n) { n_ = n; }
-    void setScale(double r0, double farLength) { r0_ = r0, farLength_ = farLength; }
+    void setIteration(uint64_t n) { n_ = n, setRadii(); }
+    void setScale(double r0, double farLength) { r0_ = r0, farLength_ = farLength, setRadii(); }
     void setTechniques(TechniqueSet set, bool merging) { set_ = set, merging_ = merging; }
     TechniqueSet techniques() const { return set_; }
 
@@ -156,6 +156,10 @@ private:
     Kd13Settings settings_;
     uint64_t n_ = 1;
     double r0_ = 0.0, farLength_ = 0.0;
+    // r_N for one mollified vertex and for two (radius(), whose pow a connection would otherwise
+    // pay: 3% of the path tracer's instructions on caustic-mirror), set with n_ and r0_.
+    double radii_[2] = {0.0, 0.0};
+    void setRadii();
     TechniqueSet set_ = TechniqueSet::Bidirectional;
     bool merging_ = false;
     std::vector<uint32_t> deltaLights_;
