@@ -213,6 +213,10 @@ public:
     // under every request (Lobe::Zero); where only the plain value underflows (a Beckmann lobe far
     // from its peak) large or +inf.
     virtual float requestRatio(const PairGeometry& /*g*/, const RegularizationRequest& /*r*/) const { return 1.f; }
+    // The same for the sampling density of wi given wo (eval's pdfFwd): its only factor that
+    // depends on alpha is the visible-normal density of wo, D(h) G1(wo, h), so the ratio is
+    // D' G1'(wo) / (D G1(wo)) (a regulariser's own density at a connection end, OPSR's path tracer).
+    virtual float requestPdfRatio(const PairGeometry& /*g*/, const RegularizationRequest& /*r*/) const { return 1.f; }
     // Non-null when this is the plain diffuse model: SurfaceBsdf then evaluates and samples it
     // inline (no virtual call, no spills around one), as pbrt-v4 dispatches on a type tag. The
     // diffuse surface is the most common of all; every other model goes through the virtual calls.

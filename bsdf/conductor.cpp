@@ -86,6 +86,9 @@ public:
     float requestRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
         return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, false, 1.f).u, g);
     }
+    float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, false, 1.f).u, g, true);
+    }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }

@@ -132,6 +132,11 @@ public:
         const bool transmission = g.lobe == PairGeometry::Lobe::Transmission;
         return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, transmission, eta_).u, g);
     }
+    float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+        const bool transmission = g.lobe == PairGeometry::Lobe::Transmission;
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, transmission, eta_).u, g,
+                                    true);
+    }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }

@@ -63,6 +63,9 @@ public:
     float requestRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
         return inner_->requestRatio(g, r);
     }
+    float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+        return inner_->requestPdfRatio(g, r);
+    }
     float roughness() const override { return inner_->roughness(); }
     Roughness alpha() const override { return inner_->alpha(); }
     std::string name() const override { return "twosided(" + inner_->name() + ")"; }

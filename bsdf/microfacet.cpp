@@ -322,7 +322,8 @@ double smithLambda(MicrofacetType type, double a2t2) {
 
 }  // namespace
 
-float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, float b, const PairGeometry& g) {
+float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, float b, const PairGeometry& g,
+                           bool density) {
     if (a == b || (g.lobe != PairGeometry::Lobe::Reflection && g.lobe != PairGeometry::Lobe::Transmission)) return 1.f;
     // (Microfacet clamps its alphas to kMinAlpha.) D(h) = alpha^2 / (pi cos^4 (alpha^2 + tan^2)^2)
     // for GGX, exp(-tan^2 / alpha^2) / (pi alpha^2 cos^4) for Beckmann: the cosines cancel.
@@ -334,10 +335,14 @@ float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, f
     if (masking == MaskingModel::Smith && type == MicrofacetType::GGX) {
         // 1 + Lambda = (1 + sqrt(1 + alpha^2 tan^2)) / 2 (the halves cancel)
         auto g1Inverse = [](double a2t2) { return 1.0 + std::sqrt(1.0 + a2t2); };
-        r *= g1Inverse(a2 * g.tanO2) * g1Inverse(a2 * g.tanI2) / (g1Inverse(b2 * g.tanO2) * g1Inverse(b2 * g.tanI2));
+        r *= density ? g1Inverse(a2 * g.tanO2) / g1Inverse(b2 * g.tanO2)
+                     : g1Inverse(a2 * g.tanO2) * g1Inverse(a2 * g.tanI2) /
+                           (g1Inverse(b2 * g.tanO2) * g1Inverse(b2 * g.tanI2));
     } else if (masking == MaskingModel::Smith) {  // G2 = G1(wo) G1(wi), G1 = chi / (1 + Lambda)
-        r *= (1.0 + smithLambda(type, a2 * g.tanO2)) * (1.0 + smithLambda(type, a2 * g.tanI2)) /
-             ((1.0 + smithLambda(type, b2 * g.tanO2)) * (1.0 + smithLambda(type, b2 * g.tanI2)));
+        auto g1Inverse = [&](double a2t2) { return 1.0 + smithLambda(type, a2t2); };
+        r *= density ? g1Inverse(a2 * g.tanO2) / g1Inverse(b2 * g.tanO2)
+                     : g1Inverse(a2 * g.tanO2) * g1Inverse(a2 * g.tanI2) /
+                           (g1Inverse(b2 * g.tanO2) * g1Inverse(b2 * g.tanI2));
     }
     // (NaN: both masking terms 0, a direction grazing to rounding, tan^2 = +inf; eval's value is
     // then 0 under both alphas, whose quotient regularisedRatio takes as 1)

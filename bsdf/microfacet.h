@@ -142,6 +142,10 @@ PairGeometry microfacetPairGeometry(const Vec3& wo, const Vec3& wi, float eta, M
 // D(b) G2(b) / (D(a) G2(a)) for the isotropic alphas a (the plain lobe's) and b (the request's) of
 // a Reflection or Transmission pair: 1 where a == b (and for Lobe::Zero), +inf where the quotient
 // overflows a float. V-cavity masking does not depend on alpha: its factor is 1.
-float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, float b, const PairGeometry& g);
+// density: D(b) G1(b, wo) / (D(a) G1(a, wo)) instead, the ratio of the sampling densities of wi
+// (pdfVisible of wo times factors without alpha: the reflection's 1 / (4 wo.h), the refraction's
+// Jacobian, the dielectric's Fresnel choice).
+float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, float b, const PairGeometry& g,
+                           bool density = false);
 
 }  // namespace lt

@@ -111,6 +111,43 @@ TEST_CASE("requestRatio equals the quotient of the two evaluations for every rou
     CHECK(transmissions > 5000);
 }
 
+TEST_CASE("requestPdfRatio equals the quotient of the two evaluations' densities for every rough isotropic lobe") {
+    // The sampling density of wi (pdfFwd) under the request over the plain one, against the two
+    // evaluations, on the models, requests and random pairs of the value test. Tolerance 1e-4: the
+    // ratio is formed in double from tan^2 of the pair, the densities in float (as for the values).
+    Rng rng(29, 5);
+    int compared = 0, transmissions = 0, grazing = 0;
+    for (const Model& m : roughModels()) {
+        INFO(m.name);
+        for (const RegularizationRequest& req : requests()) {
+            for (int i = 0; i < 300; ++i) {
+                const Vec3 wo = sampleUniformSphere(rng.uniform2()), wi = sampleUniformSphere(rng.uniform2());
+                const TransportMode mode = i % 2 ? TransportMode::Importance : TransportMode::Radiance;
+                const PairGeometry g = m.bxdf->pairGeometry(wo, wi);
+                REQUIRE(g.available());
+                if (g.lobe == PairGeometry::Lobe::Zero) continue;  // (the value test checks those)
+                const BsdfEval plain = m.bxdf->eval(wo, wi, BsdfContext(mode));
+                const BsdfEval hat = m.bxdf->eval(wo, wi, BsdfContext(mode, req));
+                const float p = m.bxdf->requestPdfRatio(g, req);
+                INFO("wo " << wo.x << " " << wo.y << " " << wo.z << " wi " << wi.x << " " << wi.y << " " << wi.z
+                           << " plain pdf " << plain.pdfFwd.value << " hat pdf " << hat.pdfFwd.value << " ratio " << p);
+                if (plain.pdfFwd.value == hat.pdfFwd.value) {
+                    if (plain.pdfFwd.value > 0.f && channelSum(plain.f) == channelSum(hat.f)) CHECK(p == 1.f);
+                    continue;
+                }
+                if (plain.pdfFwd.value < 1e-30f || hat.pdfFwd.value < 1e-30f) continue;  // (float underflow)
+                CHECK(p == Approx(hat.pdfFwd.value / plain.pdfFwd.value).epsilon(1e-4));
+                transmissions += g.lobe == PairGeometry::Lobe::Transmission;
+                grazing += std::abs(wo.z) < 0.1f;
+                ++compared;
+            }
+        }
+    }
+    CHECK(compared > 20000);
+    CHECK(transmissions > 5000);
+    CHECK(grazing > 1000);
+}
+
 TEST_CASE("requestRatio is exactly 1 where the request changes no alpha") {
     const BxdfPtr b = makeRoughConductor(MicrofacetType::GGX, 0.3f, 0.3f, kCuEta, kCuK, Color(1.f));
     RegularizationRequest below;

@@ -103,12 +103,17 @@ inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const Bsdf
         // A glossy end read for its value only: the plain value times rho_hat / rho from the
         // pair's geometry (bsdf.h, PairGeometry), where the BSDF has that form and the quotient is
         // finite; the same value as the request's evaluation up to rounding.
-        if (!v.deltaBsdf && ctx.valueOnly && !isBlack(plain)) {
+        // Where the regularised BSDF's own density is read too (not value-only: OPSR's path tracer
+        // with a light it can hit), it is the plain density times its own ratio, D' G1'(wo) /
+        // (D G1(wo)) (Bxdf::requestPdfRatio).
+        if (!v.deltaBsdf && !isBlack(plain)) {
             if (const PairGeometry pair = v.bsdf().pairGeometry(v.wo, wi); pair.available()) {
                 const float r = v.bxdf->requestRatio(pair, ctx.reg);
-                if (r < kInf) {
+                const float p = ctx.valueOnly ? 1.f : v.bxdf->requestPdfRatio(pair, ctx.reg);
+                if (r < kInf && p < kInf) {
                     e.f = plain * r;
                     ratio = r;
+                    if (!ctx.valueOnly) regularisedPdf = e.pdfFwd.value * p;
                     applyContinuation(e, *v.bxdf);
                     return e;
                 }
