@@ -67,11 +67,10 @@ std::vector<RegularizationRequest> requests() {
 
 float channelSum(const Color& c) { return c.x + c.y + c.z; }
 
-}  // namespace
-
-TEST_CASE("requestRatio equals the quotient of the two evaluations for every rough isotropic lobe") {
-    Rng rng(17, 3);
-    int compared = 0, zeros = 0, transmissions = 0;
+// Every rough model under every request on 300 random pairs (the transport modes alternating),
+// with the pair's geometry, which each of these models has.
+template <class F>
+void forEachPair(Rng& rng, F&& f) {
     for (const Model& m : roughModels()) {
         INFO(m.name);
         for (const RegularizationRequest& req : requests()) {
@@ -80,31 +79,42 @@ TEST_CASE("requestRatio equals the quotient of the two evaluations for every rou
                 const TransportMode mode = i % 2 ? TransportMode::Importance : TransportMode::Radiance;
                 const PairGeometry g = m.bxdf->pairGeometry(wo, wi);
                 REQUIRE(g.available());
-                const float plain = channelSum(m.bxdf->eval(wo, wi, BsdfContext(mode)).f);
-                const float hat = channelSum(m.bxdf->eval(wo, wi, BsdfContext(mode, req)).f);
-                const float r = m.bxdf->requestRatio(g, req);
-                INFO("wo " << wo.x << " " << wo.y << " " << wo.z << " wi " << wi.x << " " << wi.y << " " << wi.z
-                           << " plain " << plain << " hat " << hat << " ratio " << r);
-                if (g.lobe == PairGeometry::Lobe::Zero) {
-                    // Claimed 0 under every request: the plain and the request's values are 0.
-                    CHECK(plain == 0.f);
-                    CHECK(hat == 0.f);
-                    CHECK(r == 1.f);
-                    ++zeros;
-                    continue;
-                }
-                transmissions += g.lobe == PairGeometry::Lobe::Transmission;
-                if (plain == hat) {
-                    // (the request leaves this pair's alpha as it is: exactly 1, as regularisedRatio)
-                    if (plain > 0.f) CHECK(r == 1.f);
-                    continue;
-                }
-                if (plain < 1e-30f || hat < 1e-30f) continue;  // (float underflow in eval: not comparable)
-                CHECK(r == Approx(hat / plain).epsilon(1e-4));
-                ++compared;
+                INFO("wo " << wo.x << " " << wo.y << " " << wo.z << " wi " << wi.x << " " << wi.y << " " << wi.z);
+                f(*m.bxdf, req, wo, wi, mode, g);
             }
         }
     }
+}
+
+}  // namespace
+
+TEST_CASE("requestRatio equals the quotient of the two evaluations for every rough isotropic lobe") {
+    Rng rng(17, 3);
+    int compared = 0, zeros = 0, transmissions = 0;
+    forEachPair(rng, [&](const Bxdf& b, const RegularizationRequest& req, const Vec3& wo, const Vec3& wi,
+                         TransportMode mode, const PairGeometry& g) {
+        const float plain = channelSum(b.eval(wo, wi, BsdfContext(mode)).f);
+        const float hat = channelSum(b.eval(wo, wi, BsdfContext(mode, req)).f);
+        const float r = b.requestRatio(g, req);
+        INFO("plain " << plain << " hat " << hat << " ratio " << r);
+        if (g.lobe == PairGeometry::Lobe::Zero) {
+            // Claimed 0 under every request: the plain and the request's values are 0.
+            CHECK(plain == 0.f);
+            CHECK(hat == 0.f);
+            CHECK(r == 1.f);
+            ++zeros;
+            return;
+        }
+        transmissions += g.lobe == PairGeometry::Lobe::Transmission;
+        if (plain == hat) {
+            // (the request leaves this pair's alpha as it is: exactly 1, as regularisedRatio)
+            if (plain > 0.f) CHECK(r == 1.f);
+            return;
+        }
+        if (plain < 1e-30f || hat < 1e-30f) return;  // (float underflow in eval: not comparable)
+        CHECK(r == Approx(hat / plain).epsilon(1e-4));
+        ++compared;
+    });
     // The sweep reached every case it is for.
     CHECK(compared > 20000);
     CHECK(zeros > 1000);
@@ -117,32 +127,23 @@ TEST_CASE("requestPdfRatio equals the quotient of the two evaluations' densities
     // ratio is formed in double from tan^2 of the pair, the densities in float (as for the values).
     Rng rng(29, 5);
     int compared = 0, transmissions = 0, grazing = 0;
-    for (const Model& m : roughModels()) {
-        INFO(m.name);
-        for (const RegularizationRequest& req : requests()) {
-            for (int i = 0; i < 300; ++i) {
-                const Vec3 wo = sampleUniformSphere(rng.uniform2()), wi = sampleUniformSphere(rng.uniform2());
-                const TransportMode mode = i % 2 ? TransportMode::Importance : TransportMode::Radiance;
-                const PairGeometry g = m.bxdf->pairGeometry(wo, wi);
-                REQUIRE(g.available());
-                if (g.lobe == PairGeometry::Lobe::Zero) continue;  // (the value test checks those)
-                const BsdfEval plain = m.bxdf->eval(wo, wi, BsdfContext(mode));
-                const BsdfEval hat = m.bxdf->eval(wo, wi, BsdfContext(mode, req));
-                const float p = m.bxdf->requestPdfRatio(g, req);
-                INFO("wo " << wo.x << " " << wo.y << " " << wo.z << " wi " << wi.x << " " << wi.y << " " << wi.z
-                           << " plain pdf " << plain.pdfFwd.value << " hat pdf " << hat.pdfFwd.value << " ratio " << p);
-                if (plain.pdfFwd.value == hat.pdfFwd.value) {
-                    if (plain.pdfFwd.value > 0.f && channelSum(plain.f) == channelSum(hat.f)) CHECK(p == 1.f);
-                    continue;
-                }
-                if (plain.pdfFwd.value < 1e-30f || hat.pdfFwd.value < 1e-30f) continue;  // (float underflow)
-                CHECK(p == Approx(hat.pdfFwd.value / plain.pdfFwd.value).epsilon(1e-4));
-                transmissions += g.lobe == PairGeometry::Lobe::Transmission;
-                grazing += std::abs(wo.z) < 0.1f;
-                ++compared;
-            }
+    forEachPair(rng, [&](const Bxdf& b, const RegularizationRequest& req, const Vec3& wo, const Vec3& wi,
+                         TransportMode mode, const PairGeometry& g) {
+        if (g.lobe == PairGeometry::Lobe::Zero) return;  // (the value test checks those)
+        const BsdfEval plain = b.eval(wo, wi, BsdfContext(mode));
+        const BsdfEval hat = b.eval(wo, wi, BsdfContext(mode, req));
+        const float p = b.requestPdfRatio(g, req);
+        INFO("plain pdf " << plain.pdfFwd.value << " hat pdf " << hat.pdfFwd.value << " ratio " << p);
+        if (plain.pdfFwd.value == hat.pdfFwd.value) {
+            if (plain.pdfFwd.value > 0.f && channelSum(plain.f) == channelSum(hat.f)) CHECK(p == 1.f);
+            return;
         }
-    }
+        if (plain.pdfFwd.value < 1e-30f || hat.pdfFwd.value < 1e-30f) return;  // (float underflow)
+        CHECK(p == Approx(hat.pdfFwd.value / plain.pdfFwd.value).epsilon(1e-4));
+        transmissions += g.lobe == PairGeometry::Lobe::Transmission;
+        grazing += std::abs(wo.z) < 0.1f;
+        ++compared;
+    });
     CHECK(compared > 20000);
     CHECK(transmissions > 5000);
     CHECK(grazing > 1000);
