@@ -356,9 +356,6 @@ Opsr::SmoothChoice Opsr::chooseSmooth(const Technique& tech) const {
 
 bool Opsr::choosesOwnTechnique(const Technique& tech, SmoothChoice& choice) const {
     const int n = PathView(tech).n, s = tech.s;
-    // The common refusal, from the ends' own walks (smoothCandidate's answer without its
-    // requestFrom; connect asks connectible() first, which refuses these ends already).
-    if (unchangedByOwnWalk(tech.y[s - 1]) || unchangedByOwnWalk(tech.z[tech.t - 1])) return false;
     int count = 0;
     if (!allowsTechnique(set_, s, n - s) || !smoothCandidate(tech, s, choice, count) || samplable(tech)) return false;
     // (count >= 1: with no smooth end the technique is a plain one, and the path samplable.)
