@@ -332,14 +332,11 @@ float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, f
     const double q = (a2 + t) / (b2 + t);
     double r = type == MicrofacetType::GGX ? (b2 / a2) * (q * q)
                                            : (a2 / b2) * std::exp(t / a2 - t / b2);
-    if (masking == MaskingModel::Smith && type == MicrofacetType::GGX) {
-        // 1 + Lambda = (1 + sqrt(1 + alpha^2 tan^2)) / 2 (the halves cancel)
-        auto g1Inverse = [](double a2t2) { return 1.0 + std::sqrt(1.0 + a2t2); };
-        r *= density ? g1Inverse(a2 * g.tanO2) / g1Inverse(b2 * g.tanO2)
-                     : g1Inverse(a2 * g.tanO2) * g1Inverse(a2 * g.tanI2) /
-                           (g1Inverse(b2 * g.tanO2) * g1Inverse(b2 * g.tanI2));
-    } else if (masking == MaskingModel::Smith) {  // G2 = G1(wo) G1(wi), G1 = chi / (1 + Lambda)
-        auto g1Inverse = [&](double a2t2) { return 1.0 + smithLambda(type, a2t2); };
+    if (masking == MaskingModel::Smith) {  // G2 = G1(wo) G1(wi), G1 = chi / (1 + Lambda)
+        // (GGX: 1 + Lambda = (1 + sqrt(1 + alpha^2 tan^2)) / 2, and the halves cancel)
+        auto g1Inverse = [&](double a2t2) {
+            return type == MicrofacetType::GGX ? 1.0 + std::sqrt(1.0 + a2t2) : 1.0 + smithLambda(type, a2t2);
+        };
         r *= density ? g1Inverse(a2 * g.tanO2) / g1Inverse(b2 * g.tanO2)
                      : g1Inverse(a2 * g.tanO2) * g1Inverse(a2 * g.tanI2) /
                            (g1Inverse(b2 * g.tanO2) * g1Inverse(b2 * g.tanI2));
