@@ -166,7 +166,7 @@ Opsr::Opsr(const OpsrSettings& settings) : settings_(settings) {
 }
 
 void Opsr::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) {
-    n_ = n;
+    offsetScale_ = settings_.consistent ? std::pow(double(std::max<uint64_t>(n, 1)), -lambda()) : 1.0;
     if (settings_.boundTau0 != 0.0)
         tau_ = float(settings_.boundConsistent ? consistentTau(settings_.boundTau0, n) : settings_.boundTau0);
     hittableLight_ = false;
@@ -181,9 +181,6 @@ void Opsr::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) 
     smoothEnds_ = !settings_.bidirectional || !(allowsTechnique(cfg.set, 0, 2) && allHittable);
 }
 
-double Opsr::offsetScale() const {
-    return settings_.consistent ? std::pow(double(std::max<uint64_t>(n_, 1)), -lambda()) : 1.0;
-}
 
 float Opsr::request(const PathVertex* path, int count) const {
     const PathVertex& v = path[count - 1];

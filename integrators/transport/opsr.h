@@ -159,7 +159,7 @@ public:
     void beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg);
     double lambda() const { return settings_.lambda < 0.0 ? 1.0 / 6.0 : settings_.lambda; }
     // The share of the accumulated offset g - a kept in pass N: N^-lambda (consistent), else 1.
-    double offsetScale() const;
+    double offsetScale() const { return offsetScale_; }
     // (6) JG19's bound tau_n of this pass (0: none).
     float tau() const { return tau_; }
     // regularizer.h (7): roughnesses found not to be numbers (their techniques refused).
@@ -333,7 +333,7 @@ private:
     // contiguous: v.depth is its index), towards its successor in direction wi.
     void walkRatio(PathVertex& v, const Vec3& wi) const;
     OpsrSettings settings_;
-    uint64_t n_ = 1;
+    double offsetScale_ = 1.0;  // offsetScale() of the pass (beginIteration: one pow a pass, not a request)
     float tau_ = 0.f;  // (6) tau_n, 0 without the bound
     bool hittableLight_ = true;
     bool smoothEnds_ = true;  // connectible(): may a connection end at a smooth vertex?
