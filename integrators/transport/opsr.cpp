@@ -182,6 +182,14 @@ void Opsr::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) 
 }
 
 
+namespace {
+
+// Eq. 11 at a vertex of roughness a from keep, the product of (1 - gamma a_i) over the subpath's
+// surface vertices before it (OpsrState::keep, or its continuation across a connection).
+float accumulatedWithKeep(float a, float keep) { return a + (1.f - a) * (1.f - keep); }
+
+}  // namespace
+
 float Opsr::request(const PathVertex* path, int count) const {
     const PathVertex& v = path[count - 1];
     // The common answers first, in O(1): a vertex no request can change (mayChange: Lambert counts
@@ -189,7 +197,7 @@ float Opsr::request(const PathVertex* path, int count) const {
     if (count < 2 || !mayChange(v)) return -1.f;
     if (!settings_.attenuation.table) {  // Eq. 11 from the walk's running product (OpsrState::keep)
         const float a = v.roughness;
-        return requestFor(v, count == 2 ? a : a + (1.f - a) * (1.f - v.regState.opsr.keep));
+        return requestFor(v, count == 2 ? a : accumulatedWithKeep(a, v.regState.opsr.keep));
     }
     if (opsr::roughnessBin(v.roughness) == opsr::kQ - 1) return boundOnly(v);
     std::array<float, kMaxPathVertices> a;
@@ -278,7 +286,7 @@ float accumulatedFrom(const PathView& x, float gamma, int j, End side) {
         if (lc <= n - 2) keep = factor(lc, x[lc].regState.opsr.keep), i = lc - 1;
         for (; i > j; --i) keep = factor(i, keep);
     }
-    return a + (1.f - a) * (1.f - keep);
+    return accumulatedWithKeep(a, keep);
 }
 
 }  // namespace
