@@ -217,6 +217,15 @@ public:
     // depends on alpha is the visible-normal density of wo, D(h) G1(wo, h), so the ratio is
     // D' G1'(wo) / (D G1(wo)) (a regulariser's own density at a connection end, OPSR's path tracer).
     virtual float requestPdfRatio(const PairGeometry& /*g*/, const RegularizationRequest& /*r*/) const { return 1.f; }
+    // An upper bound on requestRatio over every pair (both lobes), or +inf where there is none the
+    // model knows: (b / a)^2 for an isotropic GGX lobe whose alpha a request r raises to b (D's
+    // quotient is at most that, reached in the tails; the request's masking G2' <= G2), +inf for a
+    // Beckmann lobe made rougher (the quotient grows as exp(tan^2 (1/a^2 - 1/b^2))), an anisotropic
+    // or delta lobe, or a model without pair geometry; 1 where r changes nothing. Where it is finite
+    // the material's own sample covers the regularised value with a weight at most this many times
+    // its own (f' / p = (f' / f) f / p): OPSR's path tracer then lets the walk's own sample be the
+    // regularised emitter-hit technique (integrators/transport/opsr.h (4)).
+    virtual float requestRatioBound(const RegularizationRequest& /*r*/) const { return kInf; }
     // Non-null when this is the plain diffuse model: SurfaceBsdf then evaluates and samples it
     // inline (no virtual call, no spills around one), as pbrt-v4 dispatches on a type tag. The
     // diffuse surface is the most common of all; every other model goes through the virtual calls.

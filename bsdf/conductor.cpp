@@ -89,6 +89,10 @@ public:
     float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
         return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, false, 1.f).u, g, true);
     }
+    float requestRatioBound(const RegularizationRequest& r) const override {
+        if (!rough_ || lobe_.alphaU != lobe_.alphaV) return kInf;
+        return microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, lobe_.resolve(r, false, 1.f).u);
+    }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }

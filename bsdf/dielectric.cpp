@@ -137,6 +137,12 @@ public:
         return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, transmission, eta_).u, g,
                                     true);
     }
+    // (both lobes: the request resolves to its own alpha for each)
+    float requestRatioBound(const RegularizationRequest& r) const override {
+        if (!rough_ || eta_ == 1.f || lobe_.alphaU != lobe_.alphaV) return kInf;
+        return std::max(microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, lobe_.resolve(r, false, eta_).u),
+                        microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, lobe_.resolve(r, true, eta_).u));
+    }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }

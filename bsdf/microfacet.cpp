@@ -347,4 +347,12 @@ float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, f
     return r < double(std::numeric_limits<float>::max()) ? float(r) : kInf;
 }
 
+float microfacetAlphaRatioBound(MicrofacetType type, float a, float b) {
+    const double aa = std::max(a, kMinAlpha), bb = std::max(b, kMinAlpha);
+    if (!(bb > aa)) return bb == aa ? 1.f : kInf;  // (a request only raises alphas; NaN: no bound)
+    if (type != MicrofacetType::GGX) return kInf;
+    const double r = (bb / aa) * (bb / aa);
+    return r < double(std::numeric_limits<float>::max()) ? float(r) : kInf;
+}
+
 }  // namespace lt

@@ -147,5 +147,11 @@ PairGeometry microfacetPairGeometry(const Vec3& wo, const Vec3& wi, float eta, M
 // Jacobian, the dielectric's Fresnel choice).
 float microfacetAlphaRatio(MicrofacetType type, MaskingModel masking, float a, float b, const PairGeometry& g,
                            bool density = false);
+// The supremum of microfacetAlphaRatio (not density) over every pair, for isotropic alphas
+// a <= b (both clamped to kMinAlpha as Microfacet clamps them): (b / a)^2 for GGX (D's quotient
+// (b^2 / a^2) ((a^2 + t) / (b^2 + t))^2 rises with t = tan^2 h towards it; Smith's G2 falls as
+// alpha grows, V-cavity's does not depend on it), +inf for Beckmann with b > a (no bound), 1 where
+// a == b.
+float microfacetAlphaRatioBound(MicrofacetType type, float a, float b);
 
 }  // namespace lt

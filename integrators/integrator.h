@@ -68,6 +68,10 @@ struct RenderSettings {
     double regOpsrGamma = -1.0;
     std::string regOpsrTable;
     bool regOpsrConsistent = false;
+    // OPSR's path tracer: a regularised BSDF sample for the emitter-hit technique at every vertex
+    // the request changes, as the reference implementation (false: the walk's own sample stands
+    // in where it covers the regularised lobe, opsr.h (4)).
+    bool regOpsrAlwaysSample = false;
 };
 
 // Whether JG19's diffusion heuristic runs for these settings (unset: as the quality heuristic).

@@ -84,7 +84,9 @@ public:
                 if (!isBlack(c)) {
                     const Color weighted =
                         c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
-                    record(L, weighted, 0, t, pixel, false, false, stats);
+                    // (regularizer.h (6): the walk's own hit is a regularised technique where the
+                    // regulariser lets the walk's sample stand for its own)
+                    record(L, weighted, 0, t, pixel, kEmitterSample && pdfs.regularised, false, stats);
                 }
             }
             // s = 1: next-event estimation (t segments).
@@ -110,7 +112,7 @@ public:
                     coneHits(scene, z, t, rng, readLimit, L, pixel, stats);
             }
             // s = 0 through z[t-1] with the regulariser's own BSDF sample (regularizer.h (6): OPSR).
-            if constexpr (requires { Reg::kEmitterSample; }) {
+            if constexpr (kEmitterSample) {
                 BsdfContext ctx;
                 if (t <= maxDepth && !v.infinite && reg_.emitterSample(z, t, ctx))
                     regularisedEmitterHit(scene, z, t, ctx, rng, pdfs, readLimit, L, pixel, stats);
@@ -209,6 +211,7 @@ private:
     }
 
     static constexpr bool kConeHits = requires { Reg::kConeHits; };
+    static constexpr bool kEmitterSample = requires { Reg::kEmitterSample; };
     enum class Strategy { Mis, Nee, Bsdf };
     RenderSettings settings_;
     Reg reg_;

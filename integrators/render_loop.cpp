@@ -104,6 +104,10 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
             o.attenuation.gamma = s.regOpsrGamma >= 0.0 ? float(s.regOpsrGamma) : opsr::kDefaultGamma;
         }
         o.consistent = s.regOpsrConsistent;
+        if (s.regOpsrAlwaysSample && s.integrator != "pt")
+            throw std::invalid_argument("--reg-opsr-always-sample chooses the path tracer's emitter-hit sample: it "
+                                        "applies to --integrator pt only");
+        if (s.regOpsrAlwaysSample) o.walkSampleBound = 0.f;
         o.bidirectional = s.integrator != "pt";
         o.lambda = s.regLambda;
         if (s.regLambda >= 0.0 && !s.regOpsrConsistent)

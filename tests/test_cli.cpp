@@ -105,6 +105,8 @@ TEST_CASE("bad command lines exit with 1 and name the problem, numeric ranges in
                           Case{"--reg opsr --integrator ppm", "ppm makes no connections"},
                           Case{"--reg opsr --reg-lambda 0.2", "needs --reg-opsr-consistent"},
                           Case{"--reg opsr --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"},
+                          Case{"--reg jg19 --reg-opsr-always-sample", "applies to --reg opsr only"},
+                          Case{"--reg opsr --integrator bpt --reg-opsr-always-sample", "--integrator pt only"},
                           Case{"--reg jg19,opsr --reg-quality off", "bound and schedule only"},
                           Case{"--reg jg19,opsr --reg-specular cone", "bound and schedule only"},
                           Case{"--reg jg19,opsr --integrator ppm", "ppm makes no connections"},

@@ -57,10 +57,11 @@ std::string checkpointKeyOf(const std::string& scenePath, const std::map<std::st
     const std::string settings = fmt::format(
         "integrator {}\nseed {}\nmax_depth {}\nrr_depth {}\nhide_emitters {}\npt_strategy {}\nradius {}\n"
         "radius_alpha {}\nreg {}\nreg_tau {}\nreg_schedule {}\nreg_mis {}\nreg_quality {}\nreg_diffusion {}\n"
-        "reg_specular {}\nreg_r0 {}\nreg_lambda {}\nreg_opsr_gamma {}\nreg_opsr_table {}\nreg_opsr_consistent {}\n",
+        "reg_specular {}\nreg_r0 {}\nreg_lambda {}\nreg_opsr_gamma {}\nreg_opsr_table {}\nreg_opsr_consistent {}\n"
+        "reg_opsr_always_sample {}\n",
         s.integrator, s.seed, s.maxDepth, s.rrDepth, s.hideEmitters, s.ptStrategy, s.radius, s.radiusAlpha,
         s.regularizer, s.regTau, s.regSchedule, s.regMis, s.regQuality, regDiffusionOf(s), s.regSpecular, s.regR0,
-        s.regLambda, s.regOpsrGamma, s.regOpsrTable, s.regOpsrConsistent);
+        s.regLambda, s.regOpsrGamma, s.regOpsrTable, s.regOpsrConsistent, s.regOpsrAlwaysSample);
     return analysis::sha256Hex(analysis::hashScene(scenePath, defines).sha256 + "\n" + settings);
 }
 
@@ -195,7 +196,7 @@ int main(int argc, char** argv) {
         ->check(lt::cli::range(0.0, 0.5, false, true, "0: a fixed radius"));
     double regOpsrGamma = -1.0;
     std::string regOpsrTable;
-    bool regOpsrConsistent = false;
+    bool regOpsrConsistent = false, regOpsrAlwaysSample = false;
     app.add_option("--reg-opsr-gamma", regOpsrGamma,
                    "OPSR constant attenuation factor gamma (Eq. 11; default 0.01, the paper's naive setting; 0 renders "
                    "as --reg none)")
@@ -207,6 +208,10 @@ int main(int argc, char** argv) {
     app.add_flag("--reg-opsr-consistent", regOpsrConsistent,
                  "OPSR consistent offset (Sec. 4.2): the roughness added shrinks as N^-lambda, N the pass "
                  "(lambda: --reg-lambda, default 1/6)");
+    app.add_flag("--reg-opsr-always-sample", regOpsrAlwaysSample,
+                 "OPSR in pt: draw the regularised BSDF sample for the emitter-hit technique at every vertex OPSR "
+                 "changes, as the reference implementation (default: where the walk's own sample covers the "
+                 "regularised lobe, a GGX lobe made at most twice as rough, that sample stands in, with no extra ray)");
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
     std::string checkpointPath, resumePath;
@@ -296,6 +301,7 @@ int main(int argc, char** argv) {
     settings.regOpsrGamma = regOpsrGamma >= 0.0 ? regOpsrGamma : desc.integrator.regOpsrGamma;
     settings.regOpsrTable = !regOpsrTable.empty() ? regOpsrTable : desc.integrator.regOpsrTable;
     settings.regOpsrConsistent = regOpsrConsistent || desc.integrator.regOpsrConsistent;
+    settings.regOpsrAlwaysSample = regOpsrAlwaysSample;
     // A knob of another regulariser than the one that runs is a mistake, not a no-op.
     {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
@@ -303,7 +309,7 @@ int main(int argc, char** argv) {
         const bool combined = settings.regularizer == "jg19,opsr";  // (JG19's bound and schedule only)
         const bool opsrRuns = settings.regularizer == "opsr" || combined;
         const bool kd13Knob = regR0 > 0.0 || (regLambda >= 0.0 && !opsrRuns);
-        const bool opsrKnob = regOpsrGamma >= 0.0 || !regOpsrTable.empty() || regOpsrConsistent;
+        const bool opsrKnob = regOpsrGamma >= 0.0 || !regOpsrTable.empty() || regOpsrConsistent || regOpsrAlwaysSample;
         const bool jg19Heuristic = !regMis.empty() || !regQuality.empty() || !regDiffusion.empty() || !regSpecular.empty();
         if (combined && jg19Heuristic) {
             fmt::print(stderr, "error: --reg jg19,opsr takes JG19's bound and schedule only (--reg-tau, --reg-schedule): "
@@ -316,7 +322,7 @@ int main(int argc, char** argv) {
         if (jg19Misplaced || opsrMisplaced || (kd13Knob && settings.regularizer != "kd13")) {
             fmt::print(stderr, "error: {} applies to --reg {} only (this render: --reg {})\n",
                        jg19Misplaced   ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular"
-                       : opsrMisplaced ? "--reg-opsr-gamma/-table/-consistent"
+                       : opsrMisplaced ? "--reg-opsr-gamma/-table/-consistent/-always-sample"
                                        : "--reg-r0/--reg-lambda",
                        jg19Misplaced ? "jg19" : opsrMisplaced ? "opsr" : "kd13", settings.regularizer);
             return 1;
@@ -471,6 +477,7 @@ int main(int argc, char** argv) {
             if (!settings.regOpsrTable.empty()) j["reg_opsr_table"] = settings.regOpsrTable;
             else j["reg_opsr_gamma"] = settings.regOpsrGamma >= 0.0 ? settings.regOpsrGamma : double(opsr::kDefaultGamma);
             j["reg_opsr_consistent"] = settings.regOpsrConsistent;
+            j["reg_opsr_always_sample"] = settings.regOpsrAlwaysSample;
             if (settings.regOpsrConsistent) j["reg_lambda"] = settings.regLambda;  // (-1: the default, 1/6)
             if (settings.regularizer == "opsr") j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: none)
         }

@@ -389,7 +389,12 @@ bool Opsr::selectRoughness(Technique& tech) const {
         // it, the walk's own elsewhere.
         const float g = tech.t >= 3 ? request(tech.z, tech.t - 1) : -1.f;
         if (g < 0.f) return !tech.regularisedSample;
-        if (!tech.regularisedSample) return false;
+        if (!tech.regularisedSample) {  // the walk's own sample: the technique where it covers g
+            const PathVertex& x1 = tech.z[tech.t - 2];
+            if (std::isnan(g) || !walkCovers(x1, g)) return false;
+            tech.walkSample = true;
+            tech.hitRatio = hitRatioAt(x1, -tech.z[tech.t - 1].wo, g);
+        }
         tech.regularised[0] = 1;
         tech.bound[0] = g;
         return true;
@@ -406,7 +411,18 @@ bool Opsr::selectRoughness(Technique& tech) const {
         }
         return v.connectible();
     };
-    return end(tech.y, tech.s, tech.s - 1) && end(tech.z, tech.t, tech.s);
+    if (!end(tech.y, tech.s, tech.s - 1) || !end(tech.z, tech.t, tech.s)) return false;
+    // (4) Next-event estimation competes with the walk's own sample where it covers the request.
+    if (hittableLight_ && tech.s == 1)
+        if (const float g = boundAt(tech, End::Camera); g >= 0.f) tech.walkSample = walkCovers(tech.z[tech.t - 1], g);
+    return true;
+}
+
+float Opsr::hitRatioAt(const PathVertex& v, const Vec3& wi, float g) const {
+    const BsdfContext ctx = contextFor(TransportMode::Radiance, g);
+    if (const PairGeometry pair = v.bsdf().pairGeometry(v.wo, wi); pair.available())
+        return v.bxdf->requestRatio(pair, ctx.reg);
+    return detail::regularisedRatio(v.bsdf().eval(v.wo, wi, ctx).f, v.bsdf().eval(v.wo, wi, kRadianceContext).f);
 }
 
 bool Opsr::selectBidirectional(Technique& tech) const {
@@ -441,6 +457,7 @@ bool Opsr::emitterSampleRequest(const PathVertex* z, int t, BsdfContext& ctx) co
         invalid_.add();
         return false;
     }
+    if (walkCovers(z[t - 1], g)) return false;  // (4) the walk's own sample is the technique
     ctx = contextFor(TransportMode::Radiance, g);
     return true;
 }
@@ -458,7 +475,7 @@ void Opsr::densities(const Technique& tech, PathPdfs& P) const {
     for (int i = 0; i < P.n; ++i) P.mergeScale[i] = 0.f;
     // (select writes the vertices it regularises from slot 0 on: NEE's camera end is in slot 0)
     const bool neeRegularised = tech.regularised[0] == 1 || tech.regularised[1] == 1;
-    if (tech.s == 1 && neeRegularised && P.lightHittable) {
+    if (tech.s == 1 && neeRegularised && P.lightHittable && !tech.walkSample) {
         const PathVertex& v = tech.z[tech.t - 1];
         const PathVertex& light = tech.y[0];
         const Vec3 d = light.p - v.p;

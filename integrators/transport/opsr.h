@@ -37,6 +37,14 @@
 //     weight 0 (the regularised sample replaces them). So both techniques estimate one integrand,
 //     the path with its last vertex before the light regularised, and the MIS compares their own
 //     densities: the regularised BSDF's density at z[t-1] and the light sample's (densities()).
+//     Except where the material's own sample covers the regularised BSDF (ours, not the
+//     reference's): at a glossy vertex whose request bounds rho_hat / rho over every pair by
+//     walkSampleBound (Bxdf::requestRatioBound: an isotropic GGX lobe made at most twice as rough,
+//     so the walk's sample weighs the regularised value at most 4 times its own), the emitter-hit
+//     technique is the walk's own sample, its value scaled by rho_hat / rho there and its density
+//     the material's (in both techniques' MIS). It estimates the same integrand without the extra
+//     sample and ray. Smooth vertices, Beckmann lobes and lobes made rougher still keep the
+//     regularised sample.
 //     A smooth vertex with nothing accumulated (g = 0: only smooth vertices before it) stays a
 //     delta: next-event estimation cannot connect there and select() refuses it.
 // (5) Where (BPT, VCM, light tracing: our extension; the paper has the path tracer only). Every
@@ -148,6 +156,10 @@ struct OpsrSettings {
     // (6) JG19's bound: tau_0 (> 1 / (2 pi)), 0 for none; its schedule (Eq. 16, or tau_0 throughout).
     double boundTau0 = 0.0;
     bool boundConsistent = true;
+    // (4) The largest Bxdf::requestRatioBound at which the path tracer's walk sample is the
+    // emitter-hit technique; below 1: never (every regularised vertex draws its own sample, the
+    // plain form the tests compare with).
+    float walkSampleBound = 4.f;
 };
 
 class Opsr {
@@ -202,7 +214,7 @@ public:
         const float g = boundAt(tech, end);
         if (!(g >= 0.f)) return BsdfContext(modeAt(end));
         BsdfContext c = contextFor(modeAt(end), g);
-        c.valueOnly = settings_.bidirectional || !hittableLight_;
+        c.valueOnly = settings_.bidirectional || !hittableLight_ || tech.walkSample;
         return c;
     }
     // The request for accumulated roughness g: every lobe at least alpha g on both axes (and (6)
@@ -309,6 +321,11 @@ public:
         return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.deltaBsdf;
     }
     static bool glossy(const PathVertex& v) { return mayChange(v) && !v.deltaBsdf; }
+    // (4) Whether the path tracer's walk sample at v is the emitter-hit technique for v's request g.
+    bool walkCovers(const PathVertex& v, float g) const {
+        return settings_.walkSampleBound >= 1.f && !v.deltaBsdf &&
+               v.bxdf->requestRatioBound(contextFor(TransportMode::Radiance, g).reg) <= settings_.walkSampleBound;
+    }
 
 private:
     bool selectRequest(Technique& tech) const;
@@ -332,6 +349,9 @@ private:
     // SubpathState::ratio and rhoBar of the glossy walk vertex v (its walk's vertices are
     // contiguous: v.depth is its index), towards its successor in direction wi.
     void walkRatio(PathVertex& v, const Vec3& wi) const;
+    // (4) rho_hat / rho at camera vertex v towards wi under the request for g (the walk sample's
+    // emitter hit: Technique::hitRatio).
+    float hitRatioAt(const PathVertex& v, const Vec3& wi, float g) const;
     OpsrSettings settings_;
     double offsetScale_ = 1.0;  // offsetScale() of the pass (beginIteration: one pow a pass, not a request)
     float tau_ = 0.f;  // (6) tau_n, 0 without the bound

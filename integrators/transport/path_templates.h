@@ -206,7 +206,7 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
     if (readLimit >= 1)
         pdfs.fromLight[1] = detail::emissionDensity(scene, v, v.wo, z[t - 2], sqr(v.segmentLength)).value;
     detail::techniqueDensities(reg, tech, pdfs, detail::needsPerTechnique(reg, tech));
-    return v.beta * Le;
+    return v.beta * Le * tech.hitRatio;  // (regularizer.h (6): 1 but for a regulariser's walk sample)
 }
 
 template <class Reg>

@@ -71,7 +71,11 @@
 //        tracer's emitter-hit technique through camera vertex z[t-1] is a BSDF sample drawn there
 //        with the context ctx (an extra ray), evaluated by emitterHit with
 //        Technique::regularisedSample set; select() then refuses the walk's own emitter hits
-//        through z[t-1]. A policy without the member has no such sample (None, JG19, KD13).
+//        through z[t-1]. Where emitterSample returns false at a vertex the request changes because
+//        the material's own sample covers the regularised BSDF (Bxdf::requestRatioBound), the
+//        walk's own emitter hits through it are that technique instead: select() sets
+//        Technique::walkSample and hitRatio, and emitterHit scales the walk's value by it.
+//        A policy without the member has no such sample (None, JG19, KD13).
 //  (7) A guard on the policy's own per-vertex values (issue 17 item 5): JG19's bound tau', KD13's
 //        cone half-angle, OPSR's accumulated roughness. One that is not a number where select()
 //        computes it (a degenerate vertex, a NaN from upstream) must not quietly read as "no
@@ -199,6 +203,12 @@ struct Technique {
     // An emitter hit (s = 0) whose last direction was the path tracer's regularised BSDF sample
     // (6), not the camera walk's own.
     bool regularisedSample = false;
+    // (6) The path tracer's emitter-hit technique through the regularised camera vertex next to
+    // the light is the walk's own BSDF sample, not a regularised one (select() writes it, for
+    // next-event estimation and the emitter hit alike): the technique's density is the material's
+    // own, and an emitter hit's value is the walk's times hitRatio, rho_hat / rho at that vertex.
+    bool walkSample = false;
+    float hitRatio = 1.f;
 };
 
 // (7) True where valid(bound) holds at every vertex select() regularised in `tech` (write valid
