@@ -178,6 +178,7 @@ private:
             I.regOpsrTable = path + ":" + set;
         }
         I.regOpsrConsistent = p.getBool("reg_opsr_consistent", false);
+        I.regOpsrAlwaysSample = p.getBool("reg_opsr_always_sample", false);
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.
         if (p.has("initial_radius") && p.has("radius")) p.failAt("radius", "give either radius or initial_radius");

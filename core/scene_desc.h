@@ -94,6 +94,7 @@ struct IntegratorDesc {
     double regOpsrGamma = -1.0;          // OPSR's constant gamma (reg_opsr_gamma; < 0: 0.01 unless a table)
     std::string regOpsrTable;            // OPSR's per-class factors, FILE[:SET] (reg_opsr_table; "": none)
     bool regOpsrConsistent = false;      // OPSR's consistent offset (reg_opsr_consistent)
+    bool regOpsrAlwaysSample = false;    // OPSR's path tracer: the reference's sample everywhere (reg_opsr_always_sample)
 };
 
 struct SceneDesc {

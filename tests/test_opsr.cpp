@@ -442,6 +442,7 @@ TEST_CASE("OPSR consistent offset: the bias falls with N, and not with a fixed o
 }
 
 TEST_CASE("OPSR in a scene file: reg_opsr_table is found beside the scene, and renders", "[opsr][loader]") {
+    // (reg_opsr_always_sample is read too: the path tracer's regularised sample at every vertex)
     // A table written here (every factor 0.5), a scene in the same folder naming it relative to
     // itself, loaded from another working directory: the loader resolves the file as it does mesh
     // files, and the render uses it (the glossy sphere after the diffuse floor is regularised).
@@ -454,6 +455,7 @@ TEST_CASE("OPSR in a scene file: reg_opsr_table is found beside the scene, and r
         <integer name="max_depth" value="4"/>
         <string name="regularizer" value="opsr"/>
         <string name="reg_opsr_table" value="half.json:half"/>
+        <boolean name="reg_opsr_always_sample" value="true"/>
     </integrator>
     <sensor type="perspective">
         <float name="fov" value="40"/>
@@ -476,6 +478,7 @@ TEST_CASE("OPSR in a scene file: reg_opsr_table is found beside the scene, and r
     SceneDesc desc = loadScene((dir / "scene.xml").string(), {});
     std::filesystem::current_path(cwd);
     CHECK(desc.integrator.regOpsrTable == (dir / "half.json").lexically_normal().string() + ":half");
+    CHECK(desc.integrator.regOpsrAlwaysSample);
     Scene scene(desc);
     RenderSettings s = settingsFor("pt", 16);
     s.regularizer = desc.integrator.regularizer;

@@ -737,6 +737,11 @@ TEST_CASE("configurations: --reg and its knobs reach the settings, bad values ar
     CHECK(s.regTau == 200.0);
     CHECK(s.regOpsrGamma == 0.1);
     CHECK_NOTHROW(lt::makeIntegrator(s));
+    s = makeSettings(desc, parseConfig("pt --reg opsr --reg-opsr-always-sample --label ref"), 1, 3);
+    CHECK(s.regOpsrAlwaysSample);
+    CHECK_NOTHROW(lt::makeIntegrator(s));
+    s = makeSettings(desc, parseConfig("pt --reg opsr"), 1, 3);
+    CHECK_FALSE(s.regOpsrAlwaysSample);
     for (const char* bad : {"pt --reg kd99", "pt --reg opsr,jg19", "pt --reg-tau 0.1", "pt --reg-tau x", "pt --reg-schedule sometimes",
                             "pt --reg-mis maybe", "pt --reg-quality yes", "pt --reg-diffusion yes", "pt --reg-r0 0",
                             "pt --reg-lambda 0.5", "pt --reg-lambda -0.1"}) {

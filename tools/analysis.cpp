@@ -121,7 +121,7 @@ RunConfig parseConfig(const std::string& spec) {
         if (eq != std::string::npos) {
             val = opt.substr(eq + 1);
             opt = opt.substr(0, eq);
-        } else if (opt != "--hide-emitters" && opt != "--reg-opsr-consistent") {  // (flags)
+        } else if (opt != "--hide-emitters" && opt != "--reg-opsr-consistent" && opt != "--reg-opsr-always-sample") {  // (flags)
             if (i + 1 >= w.size()) throw std::invalid_argument(fmt::format("configuration '{}': {} needs a value", spec, opt));
             val = w[++i];
         }
@@ -174,6 +174,8 @@ RunConfig parseConfig(const std::string& spec) {
             c.regOpsrTable = val;
         } else if (opt == "--reg-opsr-consistent") {
             c.regOpsrConsistent = flagValue(val);
+        } else if (opt == "--reg-opsr-always-sample") {
+            c.regOpsrAlwaysSample = flagValue(val);
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;
@@ -257,11 +259,12 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     s.regOpsrGamma = c.regOpsrGamma.value_or(desc.integrator.regOpsrGamma);
     s.regOpsrTable = c.regOpsrTable.value_or(desc.integrator.regOpsrTable);
     s.regOpsrConsistent = c.regOpsrConsistent.value_or(desc.integrator.regOpsrConsistent);
+    s.regOpsrAlwaysSample = c.regOpsrAlwaysSample.value_or(desc.integrator.regOpsrAlwaysSample);
     if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
         throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
                                                     "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --reg, --reg-tau, "
                                                     "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda, "
-                                                    "--reg-opsr-gamma, --reg-opsr-table, --reg-opsr-consistent, "
+                                                    "--reg-opsr-gamma, --reg-opsr-table, --reg-opsr-consistent, --reg-opsr-always-sample, "
                                                     "--label)",
                                                     c.spec, c.extra.begin()->first));
     return s;

@@ -40,7 +40,7 @@ struct RunConfig {
     std::optional<std::string> regularizer, regSchedule, regMis, regSpecular;
     std::optional<double> regTau, regR0, regLambda, regOpsrGamma;
     std::optional<std::string> regOpsrTable;
-    std::optional<bool> regOpsrConsistent;
+    std::optional<bool> regOpsrConsistent, regOpsrAlwaysSample;
     std::optional<bool> regQuality, regDiffusion;
     std::map<std::string, std::string> extra;
 };

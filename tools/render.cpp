@@ -301,7 +301,7 @@ int main(int argc, char** argv) {
     settings.regOpsrGamma = regOpsrGamma >= 0.0 ? regOpsrGamma : desc.integrator.regOpsrGamma;
     settings.regOpsrTable = !regOpsrTable.empty() ? regOpsrTable : desc.integrator.regOpsrTable;
     settings.regOpsrConsistent = regOpsrConsistent || desc.integrator.regOpsrConsistent;
-    settings.regOpsrAlwaysSample = regOpsrAlwaysSample;
+    settings.regOpsrAlwaysSample = regOpsrAlwaysSample || desc.integrator.regOpsrAlwaysSample;
     // A knob of another regulariser than the one that runs is a mistake, not a no-op.
     {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
