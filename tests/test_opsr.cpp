@@ -36,6 +36,26 @@ float roughnessAt(double c) {
     return float(s * s);
 }
 
+// The mean of the regularised contributions (strategy images' regularised.exr) of the path tracer
+// with OPSR at gamma 0.03 on a 32^2 scene (512 spp, max depth 8), with --pt-strategy `strategy`
+// and, where `always`, a regularised sample at every vertex (--reg-opsr-always-sample).
+double regularisedMean(const Scene& scene, const std::filesystem::path& dir, const std::string& strategy, bool always,
+                       uint64_t seed) {
+    RenderSettings s = settingsFor("pt", 512);
+    s.maxDepth = 8;
+    s.seed = seed;
+    s.ptStrategy = strategy;
+    s.regularizer = "opsr";
+    s.regOpsrGamma = 0.03;
+    s.regOpsrAlwaysSample = always;
+    const std::string name = strategy + (always ? "always" : "walk") + std::to_string(seed);
+    s.strategyImages = (dir / name).string();
+    RenderStats st;
+    renderImage(scene, s, st);
+    CHECK(st.regularisedContributions > 1000);
+    return cropMean(readImage((dir / name / "regularised.exr").string()), 32, 0, 0, 32, 32);
+}
+
 }  // namespace
 
 TEST_CASE("OPSR bins, window indices and Eq. 11 by hand", "[opsr]") {
@@ -271,21 +291,9 @@ TEST_CASE("OPSR in the path tracer: next-event estimation and the regularised BS
     SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-ggx.xml", {{"res", "32"}, {"alpha", "0.01"}});
     Scene scene(desc);
     const auto dir = tempDir("lt_opsr", "mis");
-    auto regularisedMean = [&](const std::string& strategy, uint64_t seed) {
-        RenderSettings s = settingsFor("pt", 512);
-        s.maxDepth = 8;
-        s.seed = seed;
-        s.ptStrategy = strategy;
-        s.regularizer = "opsr";
-        s.regOpsrGamma = 0.03;
-        s.strategyImages = (dir / (strategy + std::to_string(seed))).string();
-        RenderStats st;
-        renderImage(scene, s, st);
-        CHECK(st.regularisedContributions > 1000);
-        return cropMean(readImage((dir / (strategy + std::to_string(seed)) / "regularised.exr").string()), 32, 0, 0, 32, 32);
-    };
     double mis = 0.0, bsdf = 0.0;
-    for (uint64_t seed : {4, 5, 6}) mis += regularisedMean("mis", seed), bsdf += regularisedMean("bsdf", seed);
+    for (uint64_t seed : {4, 5, 6})
+        mis += regularisedMean(scene, dir, "mis", false, seed), bsdf += regularisedMean(scene, dir, "bsdf", false, seed);
     INFO("mis " << mis / 3 << ", bsdf " << bsdf / 3);
     CHECK(mis > 0.0);
     CHECK(std::abs(mis / bsdf - 1.0) < 0.05);
@@ -314,26 +322,11 @@ TEST_CASE("OPSR in the path tracer: the walk's own sample stands for the regular
     SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-ggx.xml", {{"res", "32"}, {"alpha", "0.03"}});
     Scene scene(desc);
     const auto dir = tempDir("lt_opsr", "walk");
-    auto regularisedMean = [&](const std::string& strategy, bool always, uint64_t seed) {
-        RenderSettings s = settingsFor("pt", 512);
-        s.maxDepth = 8;
-        s.seed = seed;
-        s.ptStrategy = strategy;
-        s.regularizer = "opsr";
-        s.regOpsrGamma = 0.03;
-        s.regOpsrAlwaysSample = always;
-        const std::string name = strategy + (always ? "always" : "walk") + std::to_string(seed);
-        s.strategyImages = (dir / name).string();
-        RenderStats st;
-        renderImage(scene, s, st);
-        CHECK(st.regularisedContributions > 1000);
-        return cropMean(readImage((dir / name / "regularised.exr").string()), 32, 0, 0, 32, 32);
-    };
     double mis = 0.0, bsdf = 0.0, always = 0.0;
     for (uint64_t seed = 4; seed <= 9; ++seed) {
-        mis += regularisedMean("mis", false, seed);
-        bsdf += regularisedMean("bsdf", false, seed);
-        always += regularisedMean("mis", true, seed);
+        mis += regularisedMean(scene, dir, "mis", false, seed);
+        bsdf += regularisedMean(scene, dir, "bsdf", false, seed);
+        always += regularisedMean(scene, dir, "mis", true, seed);
     }
     INFO("mis " << mis / 6 << ", bsdf " << bsdf / 6 << ", always-sample " << always / 6);
     CHECK(mis > 0.0);
