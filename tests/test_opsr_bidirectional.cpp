@@ -310,6 +310,52 @@ double meanOf(const Scene& scene, RenderSettings s, RenderStats& st) {
 
 }  // namespace
 
+TEST_CASE("OPSR with a table leaves out the smooth vertices after only smooth ones, whose own walk's request changes nothing", "[opsr][select]") {
+    // Opsr::unchangedByOwnWalk with per-class factors (a table whose every factor is 0.5: any
+    // factor, since a window of zeros accumulates 0 whatever it is) on the walks of the box with
+    // the point light in the glass sphere and the mirror ball, and of caustic-mirror.xml (a mirror
+    // seen first, glass after the floor): every smooth walk vertex it leaves out is one whose own
+    // walk's request (request, the plain form: Eqs. 13-14 over the walk) changes nothing, every
+    // one it keeps is connectible, and both kinds occur. Before, a table kept every smooth vertex
+    // a connection end (its techniques refused by select() after the light sample).
+    auto table = std::make_shared<opsr::AttenuationTable>();
+    for (int k = 2; k <= opsr::kMaxWindow; ++k) table->tables[k].assign(size_t(std::pow(opsr::kQ, k)), 0.5f);
+    for (const bool box : {true, false}) {
+        Scene scene = box ? Scene(mixedSceneWithPointInGlass(16)) : causticMirror(true);
+        const int res = box ? 16 : 32;
+        for (const bool bidirectional : {false, true}) {
+            reg::OpsrSettings o;
+            o.attenuation.table = table;
+            o.bidirectional = bidirectional;
+            reg::Opsr op(o);
+            op.setTechniques(bidirectional ? TechniqueSet::Bidirectional : TechniqueSet::PathTracer, false);
+            WalkStats ws;
+            std::array<PathVertex, kMaxPathVertices> y, z;
+            int unchanged = 0, changed = 0, changedByRequest = 0;
+            for (uint64_t i = 0; i < 300; ++i) {
+                Rng rng(i, 93);
+                const int ny = lightWalk(scene, op, rng, 8, 100, y.data(), ws);
+                const int nz = cameraWalk(scene, op, Vec2(rng.uniform() * res, rng.uniform() * res), rng, 8, 100, z.data(), ws);
+                for (const auto& [walk, count] : {std::pair{y.data(), ny}, std::pair{z.data(), nz}})
+                    for (int k = 1; k < count; ++k) {
+                        if (!reg::Opsr::smooth(walk[k])) continue;
+                        const bool left = op.unchangedByOwnWalk(walk[k]);
+                        INFO("box " << box << " bidirectional " << bidirectional << " walks " << i << " vertex " << k);
+                        CHECK(op.connectible(walk[k]) == !left);
+                        const bool requestChanges = !(op.request(walk, k + 1) < 0.f);
+                        if (left) CHECK_FALSE(requestChanges);
+                        ++(left ? unchanged : changed);
+                        changedByRequest += requestChanges;
+                    }
+            }
+            INFO("box " << box << " bidirectional " << bidirectional << ": " << unchanged << " left out, " << changed
+                        << " connectible, " << changedByRequest << " of them changed by their walk's request");
+            CHECK(unchanged > 50);
+            CHECK(changedByRequest > 50);
+        }
+    }
+}
+
 TEST_CASE("OPSR in BPT: a connection asks only whether the smooth-vertex choice of its path is its own (the plain choice's answer)", "[opsr][bidirectional][select]") {
     // choosesOwnTechnique (selectBidirectional's question) against chooseSmooth (the plain form:
     // the whole path's choice), on every split into a connection of the paths that join a prefix of

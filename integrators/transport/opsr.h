@@ -252,14 +252,16 @@ public:
         v.regState.rhoBar = 0.f;
         v.regState.opsr.keep = 1.f;
         v.regState.opsr.plainPairBefore = v.regState.opsr.plainInnerBefore = v.regState.opsr.previousPlain = false;
+        v.regState.opsr.smoothBefore = true;
     }
     void extend(PathVertex& v, PathVertex& prev) const {
         v.regState.accumulated = prev.regState.accumulated + (glossy(v) ? 1.f : 0.f);
         v.regState.ratio = 1.f;
         v.regState.rhoBar = 0.f;
-        v.regState.opsr.keep = prev.kind == VertexKind::Surface
-                                   ? prev.regState.opsr.keep * (1.f - settings_.attenuation.gamma * prev.roughness)
-                                   : 1.f;
+        const bool prevSurface = prev.kind == VertexKind::Surface;
+        v.regState.opsr.keep =
+            prevSurface ? prev.regState.opsr.keep * (1.f - settings_.attenuation.gamma * prev.roughness) : 1.f;
+        v.regState.opsr.smoothBefore = !prevSurface || (prev.regState.opsr.smoothBefore && prev.roughness == 0.f);
         if (!settings_.bidirectional) return;
         if (glossy(prev) && prev.depth >= 1) walkRatio(prev, -v.wo);
         // samplable()'s flags, where it may be asked: with smooth connection ends.
@@ -280,14 +282,16 @@ public:
     bool connectible(const PathVertex& v) const {
         return v.connectible() || (smoothEnds_ && smooth(v) && !unchangedByOwnWalk(v));
     }
-    // A smooth vertex whose own walk has no rough vertex before it (Eq. 11's running product 1,
-    // one constant gamma) accumulates its own roughness 0 from that walk's side, which no request
-    // raises without JG19's bound (requestFor). A connection ending there takes that side's
-    // roughness (the path tracer's next-event estimation; BPT's and VCM's technique of its own
-    // ends, choosesOwnTechnique), so none can make it rough.
+    // A smooth vertex whose own walk has no rough vertex before it (every roughness 0 before it,
+    // OpsrState::smoothBefore, with a constant gamma or a table; or, with one constant gamma, Eq.
+    // 11's running product 1) accumulates its own roughness 0 from that walk's side (Eqs. 11, 13
+    // and 14 of zeros; the consistent offset keeps 0), which no request raises without JG19's
+    // bound (requestFor). A connection ending there takes that side's roughness (the path
+    // tracer's next-event estimation; BPT's and VCM's technique of its own ends,
+    // choosesOwnTechnique), so none can make it rough.
     bool unchangedByOwnWalk(const PathVertex& v) const {
-        return !settings_.attenuation.table && tau_ <= 0.f && smooth(v) && v.roughness == 0.f &&
-               v.regState.opsr.keep == 1.f;
+        return tau_ <= 0.f && smooth(v) && v.roughness == 0.f &&
+               (v.regState.opsr.smoothBefore || (!settings_.attenuation.table && v.regState.opsr.keep == 1.f));
     }
     bool mergeable(const PathVertex& v) const { return v.connectible(); }
     // The common answers inline: an emitter hit (the path tracer: through a vertex no request can

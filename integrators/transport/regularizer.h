@@ -140,6 +140,10 @@ struct OpsrState {
     // plain connection ends, whether one after the endpoint is, and whether the one before this
     // is (so that the next vertex can tell its pair).
     bool plainPairBefore, plainInnerBefore, previousPlain;
+    // Whether every surface vertex of the subpath before this one has roughness 0 (smooth): then
+    // Eqs. 11, 13 and 14 give this vertex its own roughness, whatever the factors
+    // (Opsr::unchangedByOwnWalk).
+    bool smoothBefore;
 };
 
 // Per-subpath state of a regulariser on every vertex (PathVertex::regState; the comments give
