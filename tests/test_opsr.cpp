@@ -69,6 +69,14 @@ TEST_CASE("OPSR bins, window indices and Eq. 11 by hand", "[opsr]") {
     CHECK(opsr::roughnessBin(2.f) == 3);    // (roughness clamped to 1)
     CHECK(opsr::binCoordinate(0.1f) == Approx(1.2254).epsilon(1e-3));
     CHECK(opsr::binCoordinate(1.f) == 3.f);
+    CHECK(opsr::binCoordinate(0.f) == 0.f);
+    CHECK(opsr::binCoordinate(-0.5f) == 0.f);
+    CHECK(opsr::roughnessBin(-0.5f) == 0);
+    // Just inside (0, 1), the formula itself (0 and 1 are answered without it): the same bins.
+    CHECK(opsr::roughnessBin(std::nextafter(0.f, 1.f)) == 0);
+    CHECK(opsr::roughnessBin(std::nextafter(1.f, 0.f)) == 3);
+    CHECK(opsr::binCoordinate(std::nextafter(1.f, 0.f)) == 3.f);
+    CHECK(opsr::binCoordinate(std::nextafter(0.f, 1.f)) == Approx(0.f).margin(1e-6));
     // index = sum_j 4^j bin(a_j), a_0 the oldest vertex.
     const float diffuseThenSmooth[2] = {1.f, 0.f}, smoothThenDiffuse[2] = {0.f, 1.f};
     CHECK(opsr::windowIndex(diffuseThenSmooth, 2) == 3);

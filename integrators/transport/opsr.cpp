@@ -72,13 +72,16 @@ std::shared_ptr<const AttenuationTable> loadAttenuationTable(const std::string& 
 }
 
 int roughnessBin(float a) {
-    a = std::clamp(a, 0.f, 1.f);
+    // (the commonest roughnesses, smooth 0 and Lambert 1, without exp2: exactly the formula's bins)
+    if (a <= 0.f) return 0;
+    if (a >= 1.f) return kQ - 1;
     const int i = int(std::floor((std::exp2(std::sqrt(a)) - 1.f) * float(kQ + 1)));
     return std::min(i, kQ - 1);
 }
 
 float binCoordinate(float a) {
-    a = std::clamp(a, 0.f, 1.f);
+    if (a <= 0.f) return 0.f;  // (as roughnessBin: exactly the formula's values at 0 and 1)
+    if (a >= 1.f) return float(kQ - 1);
     return std::min((std::exp2(std::sqrt(a)) - 1.f) * float(kQ + 1), float(kQ - 1));
 }
 
