@@ -303,6 +303,25 @@ Scene causticMirror(bool wall) {
     return Scene(d);
 }
 
+// The smooth vertices of a light walk y[0..ny-1] and a camera walk z[0..nz-1] that connectible()
+// leaves out (Opsr::unchangedByOwnWalk) are those whose own walk's request (request, the plain
+// form) changes nothing; counted in unchanged and changed (the kept ones), and in *changedByRequest
+// those whose request does change them.
+void checkLeftOut(const reg::Opsr& op, const PathVertex* y, int ny, const PathVertex* z, int nz, int& unchanged,
+                  int& changed, int* changedByRequest) {
+    for (const auto& [walk, count] : {std::pair{y, ny}, std::pair{z, nz}})
+        for (int k = 1; k < count; ++k) {
+            if (!reg::Opsr::smooth(walk[k])) continue;
+            const bool left = op.unchangedByOwnWalk(walk[k]);
+            INFO("vertex " << k << " of the " << (walk == y ? "light" : "camera") << " walk");
+            CHECK(op.connectible(walk[k]) == !left);
+            const bool requestChanges = !(op.request(walk, k + 1) < 0.f);
+            if (left) CHECK_FALSE(requestChanges);
+            ++(left ? unchanged : changed);
+            if (changedByRequest) *changedByRequest += requestChanges;
+        }
+}
+
 double meanOf(const Scene& scene, RenderSettings s, RenderStats& st) {
     const Image img = renderImage(scene, s, st);
     return cropMean(img, img.width, 0, 0, img.width, img.height);
@@ -336,17 +355,8 @@ TEST_CASE("OPSR with a table leaves out the smooth vertices after only smooth on
                 Rng rng(i, 93);
                 const int ny = lightWalk(scene, op, rng, 8, 100, y.data(), ws);
                 const int nz = cameraWalk(scene, op, Vec2(rng.uniform() * res, rng.uniform() * res), rng, 8, 100, z.data(), ws);
-                for (const auto& [walk, count] : {std::pair{y.data(), ny}, std::pair{z.data(), nz}})
-                    for (int k = 1; k < count; ++k) {
-                        if (!reg::Opsr::smooth(walk[k])) continue;
-                        const bool left = op.unchangedByOwnWalk(walk[k]);
-                        INFO("box " << box << " bidirectional " << bidirectional << " walks " << i << " vertex " << k);
-                        CHECK(op.connectible(walk[k]) == !left);
-                        const bool requestChanges = !(op.request(walk, k + 1) < 0.f);
-                        if (left) CHECK_FALSE(requestChanges);
-                        ++(left ? unchanged : changed);
-                        changedByRequest += requestChanges;
-                    }
+                INFO("box " << box << " bidirectional " << bidirectional << " walks " << i);
+                checkLeftOut(op, y.data(), ny, z.data(), nz, unchanged, changed, &changedByRequest);
             }
             INFO("box " << box << " bidirectional " << bidirectional << ": " << unchanged << " left out, " << changed
                         << " connectible, " << changedByRequest << " of them changed by their walk's request");
@@ -378,14 +388,7 @@ TEST_CASE("OPSR in BPT: a connection asks only whether the smooth-vertex choice 
             const int nz = cameraWalk(scene, op, Vec2(rng.uniform() * res, rng.uniform() * res), rng, 6, 100, z.data(), ws);
             // The smooth vertices connectible() leaves out (unchangedByOwnWalk): the request from
             // their own walk's side changes nothing there (request, the plain form).
-            for (const auto& [walk, count] : {std::pair{y.data(), ny}, std::pair{z.data(), nz}})
-                for (int k = 1; k < count; ++k) {
-                    if (!reg::Opsr::smooth(walk[k])) continue;
-                    const bool left = op.unchangedByOwnWalk(walk[k]);
-                    CHECK(op.connectible(walk[k]) == !left);
-                    if (left) CHECK(op.request(walk, k + 1) < 0.f);
-                    ++(left ? unchanged : changed);
-                }
+            checkLeftOut(op, y.data(), ny, z.data(), nz, unchanged, changed, nullptr);
             for (int s = 1; s <= ny; ++s)
                 for (int t = 1; t <= nz; ++t) {
                     HandPath h;
