@@ -396,7 +396,8 @@ bool Opsr::selectRoughness(Technique& tech) const {
             const PathVertex& x1 = tech.z[tech.t - 2];
             if (std::isnan(g) || !walkCovers(x1, g)) return false;
             tech.walkSample = true;
-            tech.hitRatio = hitRatioAt(x1, -tech.z[tech.t - 1].wo, g);
+            tech.hitRatio = detail::regularisedRatioAt(x1.bsdf(), x1.wo, -tech.z[tech.t - 1].wo,
+                                                       contextFor(TransportMode::Radiance, g));
         }
         tech.regularised[0] = 1;
         tech.bound[0] = g;
@@ -419,13 +420,6 @@ bool Opsr::selectRoughness(Technique& tech) const {
     if (hittableLight_ && tech.s == 1)
         if (const float g = boundAt(tech, End::Camera); g >= 0.f) tech.walkSample = walkCovers(tech.z[tech.t - 1], g);
     return true;
-}
-
-float Opsr::hitRatioAt(const PathVertex& v, const Vec3& wi, float g) const {
-    const BsdfContext ctx = contextFor(TransportMode::Radiance, g);
-    if (const PairGeometry pair = v.bsdf().pairGeometry(v.wo, wi); pair.available())
-        return v.bxdf->requestRatio(pair, ctx.reg);
-    return detail::regularisedRatio(v.bsdf().eval(v.wo, wi, ctx).f, v.bsdf().eval(v.wo, wi, kRadianceContext).f);
 }
 
 bool Opsr::selectBidirectional(Technique& tech) const {

@@ -356,9 +356,6 @@ private:
     // SubpathState::ratio and rhoBar of the glossy walk vertex v (its walk's vertices are
     // contiguous: v.depth is its index), towards its successor in direction wi.
     void walkRatio(PathVertex& v, const Vec3& wi) const;
-    // (4) rho_hat / rho at camera vertex v towards wi under the request for g (the walk sample's
-    // emitter hit: Technique::hitRatio).
-    float hitRatioAt(const PathVertex& v, const Vec3& wi, float g) const;
     OpsrSettings settings_;
     double offsetScale_ = 1.0;  // offsetScale() of the pass (beginIteration: one pow a pass, not a request)
     float tau_ = 0.f;  // (6) tau_n, 0 without the bound
