@@ -283,15 +283,13 @@ public:
         return v.connectible() || (smoothEnds_ && smooth(v) && !unchangedByOwnWalk(v));
     }
     // A smooth vertex whose own walk has no rough vertex before it (every roughness 0 before it,
-    // OpsrState::smoothBefore, with a constant gamma or a table; or, with one constant gamma, Eq.
-    // 11's running product 1) accumulates its own roughness 0 from that walk's side (Eqs. 11, 13
-    // and 14 of zeros; the consistent offset keeps 0), which no request raises without JG19's
-    // bound (requestFor). A connection ending there takes that side's roughness (the path
-    // tracer's next-event estimation; BPT's and VCM's technique of its own ends,
-    // choosesOwnTechnique), so none can make it rough.
+    // OpsrState::smoothBefore) accumulates its own roughness 0 from that walk's side (Eqs. 11, 13
+    // and 14 of zeros, whatever the factors; the consistent offset keeps 0), which no request
+    // raises without JG19's bound (requestFor). A connection ending there takes that side's
+    // roughness (the path tracer's next-event estimation; BPT's and VCM's technique of its own
+    // ends, choosesOwnTechnique), so none can make it rough.
     bool unchangedByOwnWalk(const PathVertex& v) const {
-        return tau_ <= 0.f && smooth(v) && v.roughness == 0.f &&
-               (v.regState.opsr.smoothBefore || (!settings_.attenuation.table && v.regState.opsr.keep == 1.f));
+        return tau_ <= 0.f && smooth(v) && v.roughness == 0.f && v.regState.opsr.smoothBefore;
     }
     bool mergeable(const PathVertex& v) const { return v.connectible(); }
     // The common answers inline: an emitter hit (the path tracer: through a vertex no request can
