@@ -95,6 +95,7 @@ struct IntegratorDesc {
     std::string regOpsrTable;            // OPSR's per-class factors, FILE[:SET] (reg_opsr_table; "": none)
     bool regOpsrConsistent = false;      // OPSR's consistent offset (reg_opsr_consistent)
     bool regOpsrAlwaysSample = false;    // OPSR's path tracer: the reference's sample everywhere (reg_opsr_always_sample)
+    double regTailRr = -1.0;             // every regulariser: the tail roulette's threshold (reg_tail_rr; < 0: 0.1)
 };
 
 struct SceneDesc {

@@ -78,7 +78,7 @@ public:
                 Rng rng = Rng::forSample(settings_.seed, j, pass, /*domain=*/1);
                 PathVertex* y = chunk.next();
                 int ny = lightWalk(scene, reg_, rng, maxLight, rrDepthOf(settings_), y, ws);
-                if (useLightTracing_) lightTrace(scene, film, y, ny, camera, splat, ws);
+                if (useLightTracing_) lightTrace(scene, film, y, ny, camera, rng, splat, ws);
                 chunk.commit(ny);
                 if (useMerging_ && ppm_) grid_.add(c, uint32_t(j), store_.path(j), store_.pdfs(j), ny, cfg_, reg::kNone);
                 else if (useMerging_) grid_.add(c, uint32_t(j), store_.path(j), store_.pdfs(j), ny, cfg_, reg_);
@@ -121,11 +121,11 @@ public:
 private:
     // t = 1: every light vertex connected to the camera and splatted.
     void lightTrace(const Scene& scene, Film& film, const PathVertex* y, int ny, const PathVertex& camera,
-                    SplatBuffer& splat, WalkStats& ws) const {
+                    const Rng& rng, SplatBuffer& splat, WalkStats& ws) const {
         for (int s = 1; s <= ny && s <= maxDepth_; ++s) {
             if (s == 1 && (y[0].light->isDeltaPosition() || settings_.hideEmitters)) continue;  // as PT: point lights are not seen
             Connection c;
-            if (!connect(scene, reg_, y, s, &camera, 1, c, ws)) continue;
+            if (!connect(scene, reg_, y, s, &camera, 1, c, ws, kMaxPathVertices, &rng)) continue;
             const Color weighted = c.contribution * connectionWeight(c.pdfs, s, 1);
             film.splat(splat, c.raster, weighted, uint16_t(s), c.pdfs.regularised,
                        strategies_ && singularPath(y, s, &camera, 1));
@@ -184,12 +184,12 @@ private:
                 std::optional<Rng> side;  // (detail::lightSampleStream)
                 if (t <= maxDepth_ &&
                     sampleLightVertex(scene, reg_, v.p, detail::lightSampleStream(v, t, rng, side), lv) &&
-                    connect(scene, reg_, &lv, 1, z, t, c, stats))
+                    connect(scene, reg_, &lv, 1, z, t, c, stats, kMaxPathVertices, &rng))
                     record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel, c.pdfs.regularised,
                            strategies_ && singularPath(&lv, 1, z, t), stats);
                 // s >= 2: the pixel's own light subpath.
                 for (int s = 2; s <= ny && s + t - 1 <= maxDepth_; ++s)
-                    if (connect(scene, reg_, y, s, z, t, c, stats))
+                    if (connect(scene, reg_, y, s, z, t, c, stats, kMaxPathVertices, &rng))
                         record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel,
                                c.pdfs.regularised, strategies_ && singularPath(y, s, z, t), stats);
             }

@@ -72,6 +72,9 @@ struct RenderSettings {
     // the request changes, as the reference implementation (false: the walk's own sample stands
     // in where it covers the regularised lobe, opsr.h (4)).
     bool regOpsrAlwaysSample = false;
+    // Every regulariser: the threshold of the roulette on the connections only it makes
+    // (regularizer.h (9); < 0: reg::kDefaultTailThreshold, 0: every connection traced).
+    double regTailRr = -1.0;
 };
 
 // Whether JG19's diffusion heuristic runs for these settings (unset: as the quality heuristic).

@@ -97,7 +97,7 @@ public:
                 Connection conn;
                 std::optional<Rng> side;  // (detail::lightSampleStream)
                 if (sampleLightVertex(scene, reg_, v.p, detail::lightSampleStream(v, t, rng, side), y) &&
-                    connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit)) {
+                    connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit, &rng)) {
                     const Color weighted = conn.contribution * (strategy_ == Strategy::Mis
                                                                     ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer)
                                                                     : 1.f);
@@ -193,7 +193,7 @@ private:
             if (!lightEndpoint(scene, reg_, li, v.p, Vec2(0.5f), y)) continue;  // (a delta light ignores u)
             if (!(glm::dot(v.shading.n, y.p - v.p) * sampleSide > 0.f)) continue;  // the other lobe's cone
             Connection conn;
-            if (!connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit)) continue;
+            if (!connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit, &rng)) continue;
             const float sel = scene.lightDistribution().probability(li);
             const Color c = conn.contribution * (sel / bs.pdfFwd.value);
             const float w = strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 0, TechniqueSet::PathTracer) : 1.f;

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cstdint>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include "integrators/integrator.h"
 
@@ -42,7 +43,15 @@ std::string integratorForSceneType(const std::string& t) {
 // instantiation of the integrators and of path_templates.h (integrators/transport/path.cpp).
 namespace {
 template <class Reg>
-std::unique_ptr<Integrator> makeWith(const RenderSettings& s, const Reg& reg) {
+std::unique_ptr<Integrator> makeWith(const RenderSettings& s, Reg reg) {
+    if constexpr (std::is_base_of_v<reg::TailRoulette, Reg>) {  // regularizer.h (9)
+        if (std::isnan(s.regTailRr) || s.regTailRr >= 1e30)  // (< 0: the default)
+            throw std::invalid_argument(fmt::format("--reg-tail-rr must be 0 or a positive number, got {}", s.regTailRr));
+        reg.tailThreshold = float(s.regTailRr < 0.0 ? reg::kDefaultTailThreshold : s.regTailRr);
+    } else if (s.regTailRr >= 0.0) {
+        throw std::invalid_argument("--reg-tail-rr culls the connections a regulariser makes: it needs --reg jg19, kd13, "
+                                    "opsr or jg19,opsr");
+    }
     if (s.integrator == "pt") return makePathTracer(s, reg);
     if (s.integrator == "bpt" || s.integrator == "vcm" || s.integrator == "lt" || s.integrator == "ppm")
         return makeBidirectional(s, reg);

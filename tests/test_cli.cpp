@@ -107,6 +107,8 @@ TEST_CASE("bad command lines exit with 1 and name the problem, numeric ranges in
                           Case{"--reg opsr --integrator pt --pt-strategy nee", "needs --pt-strategy mis or bsdf"},
                           Case{"--reg jg19 --reg-opsr-always-sample", "applies to --reg opsr only"},
                           Case{"--reg opsr --integrator bpt --reg-opsr-always-sample", "--integrator pt only"},
+                          Case{"--reg-tail-rr 0.1", "needs --reg jg19, kd13, opsr or jg19,opsr"},
+                          Case{"--reg opsr --reg-tail-rr -1", "--reg-tail-rr: must be in [0, 1e+06] (got -1)"},
                           Case{"--reg jg19,opsr --reg-quality off", "bound and schedule only"},
                           Case{"--reg jg19,opsr --reg-specular cone", "bound and schedule only"},
                           Case{"--reg jg19,opsr --integrator ppm", "ppm makes no connections"},

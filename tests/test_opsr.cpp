@@ -443,7 +443,8 @@ TEST_CASE("OPSR consistent offset: the bias falls with N, and not with a fixed o
 }
 
 TEST_CASE("OPSR in a scene file: reg_opsr_table is found beside the scene, and renders", "[opsr][loader]") {
-    // (reg_opsr_always_sample is read too: the path tracer's regularised sample at every vertex)
+    // (reg_opsr_always_sample is read too: the path tracer's regularised sample at every vertex;
+    // and reg_tail_rr, regularizer.h (9))
     // A table written here (every factor 0.5), a scene in the same folder naming it relative to
     // itself, loaded from another working directory: the loader resolves the file as it does mesh
     // files, and the render uses it (the glossy sphere after the diffuse floor is regularised).
@@ -457,6 +458,7 @@ TEST_CASE("OPSR in a scene file: reg_opsr_table is found beside the scene, and r
         <string name="regularizer" value="opsr"/>
         <string name="reg_opsr_table" value="half.json:half"/>
         <boolean name="reg_opsr_always_sample" value="true"/>
+        <float name="reg_tail_rr" value="0.5"/>
     </integrator>
     <sensor type="perspective">
         <float name="fov" value="40"/>
@@ -480,6 +482,7 @@ TEST_CASE("OPSR in a scene file: reg_opsr_table is found beside the scene, and r
     std::filesystem::current_path(cwd);
     CHECK(desc.integrator.regOpsrTable == (dir / "half.json").lexically_normal().string() + ":half");
     CHECK(desc.integrator.regOpsrAlwaysSample);
+    CHECK(desc.integrator.regTailRr == 0.5);
     Scene scene(desc);
     RenderSettings s = settingsFor("pt", 16);
     s.regularizer = desc.integrator.regularizer;

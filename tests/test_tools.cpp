@@ -742,9 +742,16 @@ TEST_CASE("configurations: --reg and its knobs reach the settings, bad values ar
     CHECK_NOTHROW(lt::makeIntegrator(s));
     s = makeSettings(desc, parseConfig("pt --reg opsr"), 1, 3);
     CHECK_FALSE(s.regOpsrAlwaysSample);
+    CHECK(s.regTailRr < 0.0);  // (the default)
+    s = makeSettings(desc, parseConfig("bpt --reg jg19 --reg-tail-rr 0.5"), 1, 3);
+    CHECK(s.regTailRr == 0.5);
+    CHECK_NOTHROW(lt::makeIntegrator(s));
+    s = makeSettings(desc, parseConfig("pt --reg-tail-rr 0.5"), 1, 3);
+    CHECK_THROWS_AS(lt::makeIntegrator(s), std::invalid_argument);  // (no regulariser)
     for (const char* bad : {"pt --reg kd99", "pt --reg opsr,jg19", "pt --reg-tau 0.1", "pt --reg-tau x", "pt --reg-schedule sometimes",
                             "pt --reg-mis maybe", "pt --reg-quality yes", "pt --reg-diffusion yes", "pt --reg-r0 0",
-                            "pt --reg-lambda 0.5", "pt --reg-lambda -0.1"}) {
+                            "pt --reg-lambda 0.5", "pt --reg-lambda -0.1", "pt --reg opsr --reg-tail-rr -1",
+                            "pt --reg opsr --reg-tail-rr x"}) {
         INFO(bad);
         CHECK_THROWS_AS(parseConfig(bad), std::invalid_argument);
     }

@@ -176,6 +176,10 @@ RunConfig parseConfig(const std::string& spec) {
             c.regOpsrConsistent = flagValue(val);
         } else if (opt == "--reg-opsr-always-sample") {
             c.regOpsrAlwaysSample = flagValue(val);
+        } else if (opt == "--reg-tail-rr") {
+            c.regTailRr = toDouble(opt, val);
+            if (!(*c.regTailRr >= 0.0 && *c.regTailRr <= 1e6))
+                throw std::invalid_argument(fmt::format("configuration '{}': --reg-tail-rr must be in [0, 1e6]", spec));
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;
@@ -260,11 +264,12 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     s.regOpsrTable = c.regOpsrTable.value_or(desc.integrator.regOpsrTable);
     s.regOpsrConsistent = c.regOpsrConsistent.value_or(desc.integrator.regOpsrConsistent);
     s.regOpsrAlwaysSample = c.regOpsrAlwaysSample.value_or(desc.integrator.regOpsrAlwaysSample);
+    s.regTailRr = c.regTailRr.value_or(desc.integrator.regTailRr);
     if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
         throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
                                                     "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --reg, --reg-tau, "
                                                     "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda, "
-                                                    "--reg-opsr-gamma, --reg-opsr-table, --reg-opsr-consistent, --reg-opsr-always-sample, "
+                                                    "--reg-opsr-gamma, --reg-opsr-table, --reg-opsr-consistent, --reg-opsr-always-sample, --reg-tail-rr, "
                                                     "--label)",
                                                     c.spec, c.extra.begin()->first));
     return s;

@@ -36,9 +36,9 @@ struct RunConfig {
     std::optional<double> radius, radiusAlpha;
     // Regularisation, as render's --reg, --reg-tau, --reg-schedule, --reg-mis, --reg-quality,
     // --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda, --reg-opsr-gamma, --reg-opsr-table,
-    // --reg-opsr-consistent.
+    // --reg-opsr-consistent, --reg-opsr-always-sample, --reg-tail-rr.
     std::optional<std::string> regularizer, regSchedule, regMis, regSpecular;
-    std::optional<double> regTau, regR0, regLambda, regOpsrGamma;
+    std::optional<double> regTau, regR0, regLambda, regOpsrGamma, regTailRr;
     std::optional<std::string> regOpsrTable;
     std::optional<bool> regOpsrConsistent, regOpsrAlwaysSample;
     std::optional<bool> regQuality, regDiffusion;

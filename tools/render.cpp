@@ -58,10 +58,10 @@ std::string checkpointKeyOf(const std::string& scenePath, const std::map<std::st
         "integrator {}\nseed {}\nmax_depth {}\nrr_depth {}\nhide_emitters {}\npt_strategy {}\nradius {}\n"
         "radius_alpha {}\nreg {}\nreg_tau {}\nreg_schedule {}\nreg_mis {}\nreg_quality {}\nreg_diffusion {}\n"
         "reg_specular {}\nreg_r0 {}\nreg_lambda {}\nreg_opsr_gamma {}\nreg_opsr_table {}\nreg_opsr_consistent {}\n"
-        "reg_opsr_always_sample {}\n",
+        "reg_opsr_always_sample {}\nreg_tail_rr {}\n",
         s.integrator, s.seed, s.maxDepth, s.rrDepth, s.hideEmitters, s.ptStrategy, s.radius, s.radiusAlpha,
         s.regularizer, s.regTau, s.regSchedule, s.regMis, s.regQuality, regDiffusionOf(s), s.regSpecular, s.regR0,
-        s.regLambda, s.regOpsrGamma, s.regOpsrTable, s.regOpsrConsistent, s.regOpsrAlwaysSample);
+        s.regLambda, s.regOpsrGamma, s.regOpsrTable, s.regOpsrConsistent, s.regOpsrAlwaysSample, s.regTailRr);
     return analysis::sha256Hex(analysis::hashScene(scenePath, defines).sha256 + "\n" + settings);
 }
 
@@ -212,6 +212,13 @@ int main(int argc, char** argv) {
                  "OPSR in pt: draw the regularised BSDF sample for the emitter-hit technique at every vertex OPSR "
                  "changes, as the reference implementation (default: where the walk's own sample covers the "
                  "regularised lobe, a GGX lobe made at most twice as rough, that sample stands in, with no extra ray)");
+    double regTailRr = -1.0;
+    app.add_option("--reg-tail-rr", regTailRr,
+                   "Every regulariser: Russian roulette on the connections only it makes (an end whose own BSDF gives "
+                   "nothing there, a smooth one made rough): the shadow ray is cast with probability min(1, pi f / T), f "
+                   "the regularised BSDF value there (pi f = 1 for a white Lambertian), and the contribution divided by "
+                   "it; unbiased for the regularised image (default 0.1; 0 casts every one)")
+        ->check(lt::cli::range(0.0, 1e6));
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
     std::string checkpointPath, resumePath;
@@ -302,6 +309,7 @@ int main(int argc, char** argv) {
     settings.regOpsrTable = !regOpsrTable.empty() ? regOpsrTable : desc.integrator.regOpsrTable;
     settings.regOpsrConsistent = regOpsrConsistent || desc.integrator.regOpsrConsistent;
     settings.regOpsrAlwaysSample = regOpsrAlwaysSample || desc.integrator.regOpsrAlwaysSample;
+    settings.regTailRr = regTailRr >= 0.0 ? regTailRr : desc.integrator.regTailRr;
     // A knob of another regulariser than the one that runs is a mistake, not a no-op.
     {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
@@ -482,6 +490,7 @@ int main(int argc, char** argv) {
             if (settings.regularizer == "opsr") j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: none)
         }
         if (settings.regularizer != "none") {
+            j["reg_tail_rr"] = settings.regTailRr >= 0.0 ? settings.regTailRr : reg::kDefaultTailThreshold;
             j["contributions"] = stats.contributions;
             j["regularised_contributions"] = stats.regularisedContributions;
             j["regularised_share"] = regShare;

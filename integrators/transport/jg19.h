@@ -144,7 +144,7 @@ struct Diffusion {
     }
 };
 
-class Jg19 {
+class Jg19 : public TailRoulette {  // (regularizer.h (9))
 public:
     // Throws std::invalid_argument for tau0 <= 1 / (2 pi) or NaN.
     explicit Jg19(const Jg19Settings& settings);

@@ -77,7 +77,7 @@ struct Kd13Settings {
     double lambda = -1.0;  // r_N = r0 N^-lambda, lambda in [0, 1/2); < 0: 1/6 (one vertex), 1/12 (two)
 };
 
-class Kd13 {
+class Kd13 : public TailRoulette {  // (regularizer.h (9))
 public:
     // Throws std::invalid_argument for lambda >= 1/2 or NaN, r0 not finite.
     explicit Kd13(const Kd13Settings& settings);

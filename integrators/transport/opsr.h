@@ -162,7 +162,7 @@ struct OpsrSettings {
     float walkSampleBound = 4.f;
 };
 
-class Opsr {
+class Opsr : public TailRoulette {  // (regularizer.h (9))
 public:
     // Throws std::invalid_argument for gamma outside [0, 1], lambda outside (0, 1/2) or a bound
     // tau_0 that is neither 0 nor above 1 / (2 pi).

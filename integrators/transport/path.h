@@ -294,10 +294,12 @@ struct Connection {
 // `ends` is what the call site knows at compile time (one routine; the tests it makes redundant
 // fold away): LightToSurface is next-event estimation, s = 1 with y[0] a light endpoint
 // (sampleLightVertex) and z[t-1] a surface vertex the caller found connectible and not at infinity.
+// `roulette`: the sample's stream, from which the regulariser's tail roulette splits its number
+// (regularizer.h (9)); null: every connection is traced.
 enum class ConnectEnds { Any, LightToSurface };
 template <ConnectEnds ends = ConnectEnds::Any, class Reg>
 inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
-                    Connection& c, WalkStats& stats, int readLimit = kMaxPathVertices);
+                    Connection& c, WalkStats& stats, int readLimit = kMaxPathVertices, const Rng* roulette = nullptr);
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
 // fills the pdfs (path_templates.h).

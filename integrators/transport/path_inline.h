@@ -144,6 +144,26 @@ void techniqueDensities(const Reg& reg, const Technique& tech, PathPdfs& pdfs, b
         if (perTechnique) reg.densities(tech, pdfs);
 }
 
+// regularizer.h (9): whether a connection survives the tail roulette of threshold T (> 0), with
+// its contribution divided by the probability q it survived with; fCamera and fLight are the
+// values of its camera and light ends (the regularised ones where tech's ratio there is +inf).
+// The number comes from a stream split from `rng` by (s, t), drawn only where q < 1.
+inline float tailKeep(float threshold, const Color& f) {
+    return std::min(1.f, (f.x + f.y + f.z) * (kPi / 3.f) / threshold);
+}
+inline bool tailRoulette(float threshold, const Technique& tech, const Color& fCamera, const Color& fLight,
+                         const Rng& rng, Color& contrib) {
+    if (!(threshold > 0.f)) return true;
+    float q = 1.f;
+    if (tech.ratioCamera == kInf) q *= tailKeep(threshold, fCamera);
+    if (tech.ratioLight == kInf) q *= tailKeep(threshold, fLight);
+    if (!(q < 1.f)) return true;
+    Rng side = rng.split((uint64_t(uint32_t(tech.s)) << 32 | uint32_t(tech.t)) ^ 0xd6e8feb86659fd93ull);
+    if (!(side.uniform() < q)) return false;
+    contrib *= 1.f / q;
+    return true;
+}
+
 // The stream the light sample of a connection at camera vertex v (index t of its walk) draws
 // from: the walk's own where v is connectible without a regulariser; where only the regulariser
 // makes it connectible (a smooth vertex), a stream split from it (Rng::split, held in `side`), so
@@ -231,7 +251,7 @@ inline bool lightEndpoint(const Scene& scene, const Reg& reg, size_t li, const V
 
 template <ConnectEnds ends, class Reg>
 inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
-                    Connection& c, WalkStats& stats, int readLimit) {
+                    Connection& c, WalkStats& stats, int readLimit, const Rng* roulette) {
     Technique tech{y, s, z, t};
     const PathVertex& a = y[s - 1];  // light side
     const PathVertex& b = z[t - 1];  // camera side
@@ -291,6 +311,8 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
                                                  : 1.f;
     Color contrib = a.beta * fa * (cosA * cosB / dist2) * eb.f * b.beta;
     if (isBlack(contrib)) return false;
+    if constexpr (std::is_base_of_v<reg::TailRoulette, Reg>)
+        if (roulette && !detail::tailRoulette(reg.tailThreshold, tech, eb.f, fa, *roulette, contrib)) return false;
     if (shadow.tMax > 0.f) {
         ++stats.rays;
         if (stats.log) stats.log->addShadow(shadow);

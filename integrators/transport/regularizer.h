@@ -91,6 +91,21 @@
 //        shadow ray, the densities) and weighted by MIS against next-event estimation there
 //        where coneHitsCompete() (more than one light), alone under BSDF sampling only.
 //        A policy without the member has no such hits (None, JG19, OPSR).
+//  (9) Russian roulette on the connections only the regulariser makes (every policy but None:
+//        TailRoulette below, --reg-tail-rr). Where an end's own BSDF gives nothing for the pair
+//        and the request's does (Technique::ratioLight or ratioCamera +inf: a delta made rough, or
+//        a lobe widened onto the pair), connect, before its shadow ray, keeps the connection with
+//        probability q = prod over those ends of min(1, pi f_hat / T) (f_hat the regularised
+//        value, channel mean: pi f_hat is 1 for a white Lambertian) and divides its contribution
+//        by q. A narrow regularised lobe has long tails of next to nothing: with OPSR's roughness
+//        of 0.01 at amber's glass, 9 in 10 of its connections there carry together 0.15% of
+//        their light; each costs a light sample, an evaluation and a shadow ray, where the
+//        unregularised path has no connection at all. Unbiased for the regularised integrand (each technique's value in
+//        expectation, its densities and so its MIS weight unchanged); the variance it adds to a
+//        connection is c^2 (1/q - 1) <= (T cos / pi)^2 K^2 / 4 for c = K f_hat cos, at most T^2 / 4
+//        of the square of a white Lambertian's at that end. The number is drawn from a stream
+//        split from the sample's (so every other number, and every connection not culled, stays
+//        as it was) keyed by (s, t).
 #pragma once
 #include <type_traits>
 #include <atomic>
@@ -245,6 +260,16 @@ inline TransportMode modeAt(End end) { return end == End::Light ? TransportMode:
 inline bool anyRegularised(const Technique& tech) { return tech.regularised[0] >= 0 || tech.regularised[1] >= 0; }
 
 namespace reg {
+
+// (9) The threshold T of the roulette, held by every policy that requests (a base; 0: every
+// connection is traced; a policy without the base, as None, traces every connection).
+struct TailRoulette {
+    float tailThreshold = 0.f;
+};
+// The default of --reg-tail-rr: at 0.1, OPSR on amber traces 1 in 8 of its regularised
+// connections, 3.5% less time for the sample, and the image moves by an MSE of 3e-9 against a
+// 64-spp error of 0.03 (docs/regularisation-cost.md, "Tail roulette").
+inline constexpr double kDefaultTailThreshold = 0.1;
 
 // No regularisation: the reference implementation of the interface above.
 struct None {
