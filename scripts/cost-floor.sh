@@ -13,14 +13,16 @@
 # weighted 1 (no MIS). No heuristic, no per-vertex state, no per-technique densities: a plain
 # connection's work for each of the regulariser's connections.
 # The check that it makes exactly the regulariser's connections: the rays it casts equal JG19's
-# (all) and OPSR's (after-rough), counted on one render per scene (48x48, 8 spp, 1 thread); the
-# table says "equal" or "DIFFER".
+# (all) and OPSR's (after-rough), both casting every connection (--reg-tail-rr 0: jg19-all,
+# opsr-all), counted on one render per scene (48x48, 8 spp, 1 thread); the table says "equal" or
+# "DIFFER". Beside them the regularisers with their defaults, whose tail roulette (regularizer.h
+# (9)) casts fewer: the floor is that of a regulariser casting every connection.
 #
-#   bash scripts/cost-floor.sh [OUT] [ROUNDS]   (default out/cost-floor, 11 rounds; ~6 minutes)
+#   bash scripts/cost-floor.sh [OUT] [ROUNDS]   (default out/cost-floor, 11 rounds; ~8 minutes)
 #
 # Time as scripts/cost-time.sh measures it (the render loop's seconds, 128x128, 2 threads, seed 1,
 # PT 48 spp), in rounds: none, none with the patched binary (the patch alone should cost nothing),
-# floor all, jg19, floor after-rough, opsr, one after the other; each ratio is taken within its
+# floor all, jg19-all, jg19, floor after-rough, opsr-all, opsr, one after the other; each ratio is taken within its
 # round and the table gives the median over the rounds. Writes OUT/rounds.csv and OUT/cost-floor.md.
 # Needs build/tools/render (bash scripts/setup.sh build) and git (the worktree of HEAD).
 set -euo pipefail
@@ -45,7 +47,7 @@ plain=build/tools/render
 patched="$work/build/tools/render"
 
 scenes=(cornell-box-point-in-glass hard/amber hard/caustic-mirror hard/caustic-point-glass hard/specular-point-view)
-configs=(none none-patched floor-all jg19 floor-after-rough opsr)
+configs=(none none-patched floor-all jg19-all jg19 floor-after-rough opsr-all opsr)
 run() {  # run CONFIG SCENE JSON ARGS...
   local c="$1" sc="$2" json="$3" bin="$plain"
   local -a vars=()
@@ -55,6 +57,7 @@ run() {  # run CONFIG SCENE JSON ARGS...
     none-patched) bin="$patched" ;;
     floor-all) bin="$patched" vars=(LT_FLOOR=all) ;;
     floor-after-rough) bin="$patched" vars=(LT_FLOOR=after-rough) ;;
+    jg19-all | opsr-all) set -- "$@" --reg "${c%-all}" --reg-tail-rr 0 ;;
     *) set -- "$@" --reg "$c" ;;
   esac
   env "${vars[@]}" "$bin" "scenes/$sc.xml" "$@" -q -o "$out/runs/run.exr" --stats-json "$json" >/dev/null 2>&1 ||
@@ -65,7 +68,7 @@ value() { sed -n "s/.*\"$1\": \\([0-9.e+-]*\\).*/\\1/p" "$2"; }
 # The rays check.
 declare -A rays
 for sc in "${scenes[@]}"; do
-  for c in floor-all jg19 floor-after-rough opsr; do
+  for c in floor-all jg19-all floor-after-rough opsr-all; do
     run "$c" "$sc" "$out/runs/rays.json" -D res=48 --spp 8 --threads 1 --seed 1 --integrator pt
     rays[$sc,$c]=$(value rays "$out/runs/rays.json")
   done
@@ -88,12 +91,13 @@ rm -f "$out"/runs/run.* "$out"/runs/rays.json 2>/dev/null || true
 {
   echo "Path tracer, render-loop seconds per sample over plain PT's (128x128, 2 threads, seed 1, 48 spp; median of $rounds rounds)."
   echo "floor all: the connections JG19 makes, at a plain connection's cost; floor after-rough: OPSR's."
+  echo "jg19 all, opsr all: the regularisers casting every connection (--reg-tail-rr 0), as the floors do; jg19, opsr: their defaults (the tail roulette at 0.1)."
   echo
-  echo "| scene | rays: floor all = jg19, after-rough = opsr | none, patched binary | floor all | jg19 | floor after-rough | opsr |"
-  echo "|---|---|---:|---:|---:|---:|---:|"
+  echo "| scene | rays: floor all = jg19 all, after-rough = opsr all | none, patched binary | floor all | jg19 all | jg19 | floor after-rough | opsr all | opsr |"
+  echo "|---|---|---:|---:|---:|---:|---:|---:|---:|"
   for sc in "${scenes[@]}"; do
     check() { [ "${rays[$sc,$1]}" = "${rays[$sc,$2]}" ] && echo "equal (${rays[$sc,$1]})" || echo "DIFFER (${rays[$sc,$1]} vs ${rays[$sc,$2]})"; }
-    row="| $sc | $(check floor-all jg19); $(check floor-after-rough opsr) |"
+    row="| $sc | $(check floor-all jg19-all); $(check floor-after-rough opsr-all) |"
     for c in "${configs[@]:1}"; do
       m=$(awk -F, -v sc="$sc" -v c="$c" '$1 == sc && $2 == c { a[++n] = $5 }
         END { for (i = 2; i <= n; ++i) for (j = i; j > 1 && a[j - 1] > a[j]; --j) { t = a[j]; a[j] = a[j - 1]; a[j - 1] = t }
