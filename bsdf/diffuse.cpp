@@ -66,6 +66,8 @@ public:
     float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
         return inner_->requestPdfRatio(g, r);
     }
+    // (the pairs are the inner model's, mirrored: the same bound)
+    float requestRatioBound(const RegularizationRequest& r) const override { return inner_->requestRatioBound(r); }
     float roughness() const override { return inner_->roughness(); }
     Roughness alpha() const override { return inner_->alpha(); }
     std::string name() const override { return "twosided(" + inner_->name() + ")"; }

@@ -194,6 +194,9 @@ TEST_CASE("requestRatioBound bounds requestRatio over every pair and is approach
               Approx(2.56f).epsilon(1e-5));
         CHECK(makeRoughDielectric(MicrofacetType::GGX, 0.05f, 0.05f, 1.5f, Color(1.f), Color(1.f), k)
                   ->requestRatioBound(to08) == Approx(2.56f).epsilon(1e-5));
+        // Mitsuba's twosided: the inner model's pairs, mirrored, and so its bound.
+        CHECK(makeTwoSided(makeRoughConductor(MicrofacetType::GGX, 0.05f, 0.05f, kCuEta, kCuK, Color(1.f), k))
+                  ->requestRatioBound(to08) == Approx(2.56f).epsilon(1e-5));
         CHECK(!(makeRoughConductor(MicrofacetType::Beckmann, 0.05f, 0.05f, kCuEta, kCuK, Color(1.f), k)
                     ->requestRatioBound(to08) < kInf));
     }
