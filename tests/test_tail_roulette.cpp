@@ -32,6 +32,12 @@ TEST_CASE("Tail roulette keeps a connection with probability pi f over T and div
         CHECK(detail::tailRoulette(0.f, tech, f, f, Rng::forSample(1, 0, 0), c));
         CHECK(c == contrib0);
     }
+    SECTION("A probability that underflows to 0 keeps the connection as it is") {
+        tech.ratioCamera = kInf;
+        Color c = contrib0;
+        CHECK(detail::tailRoulette(1e6f, tech, Color(1e-45f), diffuse, Rng::forSample(1, 0, 0), c));
+        CHECK(c == contrib0);
+    }
     SECTION("A value at or above the threshold is kept as it is") {
         tech.ratioCamera = tech.ratioLight = kInf;
         for (int i = 0; i < 100; ++i) {

@@ -147,7 +147,10 @@ void techniqueDensities(const Reg& reg, const Technique& tech, PathPdfs& pdfs, b
 // regularizer.h (9): whether a connection survives the tail roulette of threshold T (> 0), with
 // its contribution divided by the probability q it survived with; fCamera and fLight are the
 // values of its camera and light ends (the regularised ones where tech's ratio there is +inf).
-// The number comes from a stream split from `rng` by (s, t), drawn only where q < 1.
+// The number comes from a stream split from `rng` by (s, t), drawn only where q < 1. A kept
+// connection's value c / q is at most T / pi times the rest of its product (K cos / pi T for
+// c = K f cos): no larger than a Lambertian of albedo T's would be there, so the roulette makes
+// no fireflies.
 inline float tailKeep(float threshold, const Color& f) {
     return std::min(1.f, (f.x + f.y + f.z) * (kPi / 3.f) / threshold);
 }
@@ -157,7 +160,8 @@ inline bool tailRoulette(float threshold, const Technique& tech, const Color& fC
     float q = 1.f;
     if (tech.ratioCamera == kInf) q *= tailKeep(threshold, fCamera);
     if (tech.ratioLight == kInf) q *= tailKeep(threshold, fLight);
-    if (!(q < 1.f)) return true;
+    // (q 0, a value that underflowed: kept as it is, which is unbiased too)
+    if (!(q < 1.f) || !(q > 0.f)) return true;
     Rng side = rng.split((uint64_t(uint32_t(tech.s)) << 32 | uint32_t(tech.t)) ^ 0xd6e8feb86659fd93ull);
     if (!(side.uniform() < q)) return false;
     contrib *= 1.f / q;
