@@ -19,32 +19,26 @@ TEST_CASE("Tail roulette keeps a connection with probability pi f over T and div
     // f with pi f = 0.1 at the camera end: q = 0.1 / 0.4 = 0.25.
     const Color f(0.1f / kPi);
     const Color diffuse(1.f / kPi);  // a white Lambertian: pi f = 1 >= T, kept
-    SECTION("Ends the request did not make are never culled") {
-        for (int i = 0; i < 100; ++i) {
+    // Every one of `trials` streams keeps the connection, its contribution unchanged.
+    auto keptUnchanged = [&](float threshold, const Color& fCamera, const Color& fLight, int trials) {
+        for (int i = 0; i < trials; ++i) {
             Color c = contrib0;
-            CHECK(detail::tailRoulette(T, tech, f, f, Rng::forSample(1, uint32_t(i), 0), c));
+            CHECK(detail::tailRoulette(threshold, tech, fCamera, fLight, Rng::forSample(1, uint32_t(i), 0), c));
             CHECK(c == contrib0);
         }
-    }
+    };
+    SECTION("Ends the request did not make are never culled") { keptUnchanged(T, f, f, 100); }
     SECTION("Threshold 0 keeps everything unchanged") {
         tech.ratioCamera = kInf;
-        Color c = contrib0;
-        CHECK(detail::tailRoulette(0.f, tech, f, f, Rng::forSample(1, 0, 0), c));
-        CHECK(c == contrib0);
+        keptUnchanged(0.f, f, f, 1);
     }
     SECTION("A probability that underflows to 0 keeps the connection as it is") {
         tech.ratioCamera = kInf;
-        Color c = contrib0;
-        CHECK(detail::tailRoulette(1e6f, tech, Color(1e-45f), diffuse, Rng::forSample(1, 0, 0), c));
-        CHECK(c == contrib0);
+        keptUnchanged(1e6f, Color(1e-45f), diffuse, 1);
     }
     SECTION("A value at or above the threshold is kept as it is") {
         tech.ratioCamera = tech.ratioLight = kInf;
-        for (int i = 0; i < 100; ++i) {
-            Color c = contrib0;
-            CHECK(detail::tailRoulette(T, tech, diffuse, diffuse, Rng::forSample(1, uint32_t(i), 0), c));
-            CHECK(c == contrib0);
-        }
+        keptUnchanged(T, diffuse, diffuse, 100);
     }
     SECTION("One regularised end: kept with q = 0.25 and divided by it") {
         // 20,000 trials: the kept fraction's standard deviation is sqrt(0.25 0.75 / 20000) = 0.0031;
