@@ -32,9 +32,10 @@ TEST_CASE("Tail roulette keeps a connection with probability pi f over T and div
         tech.ratioCamera = kInf;
         keptUnchanged(0.f, f, f, 1);
     }
-    SECTION("A probability that underflows to 0 keeps the connection as it is") {
+    SECTION("A probability that underflows (or under 1e-30) keeps the connection as it is") {
         tech.ratioCamera = kInf;
         keptUnchanged(1e6f, Color(1e-45f), diffuse, 1);
+        keptUnchanged(1e6f, Color(1e-25f), diffuse, 1);  // (q ~ 3e-31: 1 / q would near FLT_MAX)
     }
     SECTION("A value at or above the threshold is kept as it is") {
         tech.ratioCamera = tech.ratioLight = kInf;

@@ -160,11 +160,12 @@ inline bool tailRoulette(float threshold, const Technique& tech, const Color& fC
     float q = 1.f;
     if (tech.ratioCamera == kInf) q *= tailKeep(threshold, fCamera);
     if (tech.ratioLight == kInf) q *= tailKeep(threshold, fLight);
-    // (q 0, a value that underflowed: kept as it is, which is unbiased too)
-    if (!(q < 1.f) || !(q > 0.f)) return true;
+    // (q below 1e-30, 0 where a value underflowed: kept as it is, which is unbiased too, and 1 / q
+    // never overflows)
+    if (!(q < 1.f) || !(q > 1e-30f)) return true;
     Rng side = rng.split((uint64_t(uint32_t(tech.s)) << 32 | uint32_t(tech.t)) ^ 0xd6e8feb86659fd93ull);
     if (!(side.uniform() < q)) return false;
-    contrib *= 1.f / q;
+    contrib /= q;
     return true;
 }
 
