@@ -148,9 +148,8 @@ void techniqueDensities(const Reg& reg, const Technique& tech, PathPdfs& pdfs, b
 // its contribution divided by the probability q it survived with; fCamera and fLight are the
 // values of its camera and light ends (the regularised ones where tech's ratio there is +inf).
 // The number comes from a stream split from `rng` by (s, t), drawn only where q < 1. A kept
-// connection's value c / q is at most T / pi times the rest of its product (K cos / pi T for
-// c = K f cos): no larger than a Lambertian of albedo T's would be there, so the roulette makes
-// no fireflies.
+// connection's value c / q, for c = K f cos (K the rest of its product), is K cos T / pi: what a
+// Lambertian of albedo T would give there, so the roulette makes no fireflies.
 inline float tailKeep(float threshold, const Color& f) {
     return std::min(1.f, (f.x + f.y + f.z) * (kPi / 3.f) / threshold);
 }
