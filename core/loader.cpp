@@ -181,8 +181,8 @@ private:
         I.regOpsrAlwaysSample = p.getBool("reg_opsr_always_sample", false);
         if (p.has("reg_tail_rr")) {
             I.regTailRr = p.getFloat("reg_tail_rr", -1.f);
-            if (!(I.regTailRr >= 0.0 && I.regTailRr <= 1e6))
-                p.failAt("reg_tail_rr", fmt::format("must be in [0, 1e6] (got {})", I.regTailRr));
+            if (!(I.regTailRr >= 0.0 && I.regTailRr <= kMaxRegTailRr))
+                p.failAt("reg_tail_rr", fmt::format("must be in [0, {:g}] (got {})", kMaxRegTailRr, I.regTailRr));
         }
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.

@@ -63,6 +63,10 @@ inline const std::vector<std::string> kRegScheduleNames{"consistent", "fixed"};
 inline const std::vector<std::string> kRegMisNames{"regularised", "sampling"};
 inline const std::vector<std::string> kRegSpecularNames{"ggx", "cone"};
 
+// The largest threshold of the regularisers' tail roulette (reg_tail_rr, --reg-tail-rr; regularizer.h
+// (9)) that the loader, render's command line, the analysis configurations and makeIntegrator take.
+inline constexpr double kMaxRegTailRr = 1e6;
+
 // OPSR's table argument "FILE[:SET]" -> (FILE, SET), SET "low" when not given (a colon followed by
 // a path, or none, is part of FILE). The loader resolves FILE against the scene's folder.
 inline std::pair<std::string, std::string> splitOpsrTableSpec(const std::string& spec) {

@@ -45,8 +45,9 @@ namespace {
 template <class Reg>
 std::unique_ptr<Integrator> makeWith(const RenderSettings& s, Reg reg) {
     if constexpr (std::is_base_of_v<reg::TailRoulette, Reg>) {  // regularizer.h (9)
-        if (std::isnan(s.regTailRr) || s.regTailRr >= 1e30)  // (< 0: the default)
-            throw std::invalid_argument(fmt::format("--reg-tail-rr must be 0 or a positive number, got {}", s.regTailRr));
+        if (std::isnan(s.regTailRr) || s.regTailRr > kMaxRegTailRr)  // (< 0: the default)
+            throw std::invalid_argument(
+                fmt::format("--reg-tail-rr must be in [0, {:g}], got {}", kMaxRegTailRr, s.regTailRr));
         reg.tailThreshold = float(s.regTailRr < 0.0 ? reg::kDefaultTailThreshold : s.regTailRr);
     } else if (s.regTailRr >= 0.0) {
         throw std::invalid_argument("--reg-tail-rr culls the connections a regulariser makes: it needs --reg jg19, kd13, "

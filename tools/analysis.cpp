@@ -178,8 +178,9 @@ RunConfig parseConfig(const std::string& spec) {
             c.regOpsrAlwaysSample = flagValue(val);
         } else if (opt == "--reg-tail-rr") {
             c.regTailRr = toDouble(opt, val);
-            if (!(*c.regTailRr >= 0.0 && *c.regTailRr <= 1e6))
-                throw std::invalid_argument(fmt::format("configuration '{}': --reg-tail-rr must be in [0, 1e6]", spec));
+            if (!(*c.regTailRr >= 0.0 && *c.regTailRr <= kMaxRegTailRr))
+                throw std::invalid_argument(
+                    fmt::format("configuration '{}': --reg-tail-rr must be in [0, {:g}]", spec, kMaxRegTailRr));
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;

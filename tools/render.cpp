@@ -218,7 +218,7 @@ int main(int argc, char** argv) {
                    "nothing there, a smooth one made rough): the shadow ray is cast with probability min(1, pi f / T), f "
                    "the regularised BSDF value there (pi f = 1 for a white Lambertian), and the contribution divided by "
                    "it; unbiased for the regularised image (default 0.1; 0 casts every one)")
-        ->check(lt::cli::range(0.0, 1e6));
+        ->check(lt::cli::range(0.0, kMaxRegTailRr));
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
     std::string checkpointPath, resumePath;

@@ -102,9 +102,9 @@
 //        their light; each costs a light sample, an evaluation and a shadow ray, where the
 //        unregularised path has no connection at all. Unbiased for the regularised integrand
 //        (each technique's value in expectation, its densities and so its MIS weight
-//        unchanged); the variance it adds to a
-//        connection is c^2 (1/q - 1) <= (T cos / pi)^2 K^2 / 4 for c = K f_hat cos, at most T^2 / 4
-//        of the square of a white Lambertian's at that end, and a kept one is worth what a
+//        unchanged); the variance it adds to a connection is c^2 (1/q - 1) <= (T cos / pi)^2 K^2 / 4
+//        for c = K f_hat cos, at most T^2 / 4 of the square of a white Lambertian's at that end,
+//        and a kept one is worth what a
 //        Lambertian of albedo T would be there (no fireflies). The number is drawn from a stream
 //        split from the sample's (so every other number, and every connection not culled, stays
 //        as it was) keyed by (s, t).
