@@ -91,19 +91,11 @@ public:
             }
             // s = 1: next-event estimation (t segments).
             if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && reg_.connectible(v)) {
-                // Locals no call sees (the chain is inline): their default initialisation and the
-                // fields connect does not read are dropped by the compiler, the rest stay in registers.
-                PathVertex y;
-                Connection conn;
-                std::optional<Rng> side;  // (detail::lightSampleStream)
-                if (sampleLightVertex(scene, reg_, v.p, detail::lightSampleStream(v, t, rng, side), y) &&
-                    connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit, &rng)) {
-                    const Color weighted = conn.contribution * (strategy_ == Strategy::Mis
-                                                                    ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer)
-                                                                    : 1.f);
-                    record(L, weighted, 1, t, pixel, conn.pdfs.regularised, strategies_ && singularPath(&y, 1, z, t),
-                           stats);
-                }
+                // (regularizer.h (10): where the policy leaves every such connection plain, the
+                // plain routine, whose records no out-of-line call sees)
+                if (reg_.plainNextEvent(v) && !reg::gTestNoPlainNextEvent)
+                    nextEvent(scene, reg::kNone, z, t, rng, readLimit, L, pixel, stats);
+                else nextEvent(scene, reg_, z, t, rng, readLimit, L, pixel, stats);
             }
             // s = 0 through z[t-1]: a delta light in the cone of a BSDF sample (regularizer.h (8): KD13).
             if constexpr (kConeHits) {
@@ -122,6 +114,24 @@ public:
     }
 
 private:
+    // Next-event estimation at z[t-1] with policy `reg` (reg_, or reg::None where reg_ leaves it plain).
+    template <class R>
+    void nextEvent(const Scene& scene, const R& reg, const PathVertex* z, int t, Rng& rng, int readLimit, Color& L,
+                   uint32_t pixel, WalkStats& stats) const {
+        // Locals no call sees where the chain is inline (reg::None's): their default
+        // initialisation and the fields connect does not read are dropped by the compiler, the
+        // rest stay in registers. (A policy's out-of-line select() sees them: regularizer.h (10).)
+        PathVertex y;
+        Connection conn;
+        std::optional<Rng> side;  // (detail::lightSampleStream)
+        if (sampleLightVertex(scene, reg, z[t - 1].p, detail::lightSampleStream(z[t - 1], t, rng, side), y) &&
+            connect<ConnectEnds::LightToSurface>(scene, reg, &y, 1, z, t, conn, stats, readLimit, &rng)) {
+            const Color weighted =
+                conn.contribution * (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
+            record(L, weighted, 1, t, pixel, conn.pdfs.regularised, strategies_ && singularPath(&y, 1, z, t), stats);
+        }
+    }
+
     // The emitter-hit technique through z[t-1] drawn with the regularised context ctx
     // (regularizer.h (6)): one BSDF sample on a stream split from the walk's (whose numbers, and so
     // every other contribution, stay as they were) and one ray; a light it hits is written into

@@ -180,6 +180,9 @@ public:
     // (connectionUnder; a merge's joining segment is the photon's, y[s-2] - z[t-1], the one of the
     // connection technique with the same vertices), is unregularised; everything else (emitter
     // hits, ends at infinity, the loop) is the out-of-line form.
+    // (10) Under the quality heuristic, a camera vertex whose subpath has nothing the bound changes
+    // (changeable 0; a light endpoint has none): select() leaves its connection to a light plain.
+    bool plainNextEvent(const PathVertex& v) const { return settings_.quality && v.regState.jg.changeable == 0.f; }
     bool select(Technique& tech) const {
         const int lightCount = tech.photon ? tech.s - 1 : tech.s;  // (a merge's x_i is z[t-1])
         if (settings_.quality && lightCount >= 1 && tech.t >= 1 && tech.y) {

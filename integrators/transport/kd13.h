@@ -136,6 +136,8 @@ public:
     bool mergeable(const PathVertex& v) const { return v.connectible(); }
     // The common answers inline: a merge (at a non-delta vertex) or an emitter hit samples its
     // path itself, and so does a connection whose ends are both non-delta.
+    // (10) A plain camera vertex (a light endpoint is one): select() mollifies nothing.
+    bool plainNextEvent(const PathVertex& v) const { return plain(v); }
     bool select(Technique& tech) const {
         tech.regularised[0] = tech.regularised[1] = -1;
         if (tech.photon || tech.s == 0) return true;

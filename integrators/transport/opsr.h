@@ -306,6 +306,9 @@ public:
         }
         return selectRequest(tech);
     }
+    // (10) A camera vertex no request can change (mayChange): select() leaves its connections
+    // to a light plain, with no per-technique densities.
+    bool plainNextEvent(const PathVertex& v) const { return !mayChange(v); }
     // (6) The path tracer's regularised BSDF sample at camera vertex z[t-1]: true (and its context)
     // where the request changes z[t-1]'s BSDF and the scene has a light a ray can hit.
     static constexpr bool kEmitterSample = true;

@@ -108,6 +108,16 @@
 //        Lambertian of albedo T would be there (no fireflies). The number is drawn from a stream
 //        split from the sample's (so every other number, and every connection not culled, stays
 //        as it was) keyed by (s, t).
+// (10) The path tracer's plain next-event estimation.
+//        plainNextEvent(v): true where every connection from camera vertex v to a light endpoint
+//        is one select() leaves unregularised with no per-technique densities (nothing regularised,
+//        the contexts the plain ones, no roulette), so that the connection, its value, densities
+//        and MIS weight, are reg::None's bit for bit. The path tracer then runs None's routine
+//        there, whose records no out-of-line call of the policy sees: the compiler keeps them in
+//        registers instead of writing the light vertex and the technique out for select()'s
+//        out-of-line form. None: always. OPSR: a vertex no request can change (mayChange). KD13:
+//        a plain vertex. JG19: under the quality heuristic, a subpath with nothing the bound
+//        changes (changeable 0); never without it (its MIS reads the subpath's ratios).
 #pragma once
 #include <type_traits>
 #include <atomic>
@@ -292,10 +302,14 @@ struct None {
     bool mergeable(const PathVertex& v) const;
     void beginIteration(uint64_t, const Scene&, const MisConfig&) {}
     // (5) Nothing regularised; every technique contributes.
-    bool select(Technique&) const { return true; }
+    bool select(Technique&) const { return true; }    // (10)
+    bool plainNextEvent(const PathVertex&) const { return true; }
 };
 // The unregularised policy as a value, for callers that pass it directly (the tests).
 inline constexpr None kNone{};
+// Test hook for (10): the path tracer runs the policy's own routine at every vertex, so that the
+// tests can compare it with the plain one where plainNextEvent says they agree.
+inline bool gTestNoPlainNextEvent = false;
 // Whether a policy's contexts may carry a request (None's never do: the connection routines then
 // evaluate a connection end once, without asking whether a request could change it).
 template <class Reg>
