@@ -93,7 +93,7 @@ public:
             if (strategy_ != Strategy::Bsdf && t <= maxDepth && !v.infinite && reg_.connectible(v)) {
                 // (regularizer.h (10): where the policy leaves every such connection plain, the
                 // plain routine, whose records no out-of-line call sees)
-                if (reg_.plainNextEvent(v) && !reg::gTestNoPlainNextEvent)
+                if (reg_.plainNextEvent(v))
                     nextEvent(scene, reg::kNone, z, t, rng, readLimit, L, pixel, stats);
                 else nextEvent(scene, reg_, z, t, rng, readLimit, L, pixel, stats);
             }

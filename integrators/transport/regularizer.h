@@ -307,9 +307,6 @@ struct None {
 };
 // The unregularised policy as a value, for callers that pass it directly (the tests).
 inline constexpr None kNone{};
-// Test hook for (10): the path tracer runs the policy's own routine at every vertex, so that the
-// tests can compare it with the plain one where plainNextEvent says they agree.
-inline bool gTestNoPlainNextEvent = false;
 // Whether a policy's contexts may carry a request (None's never do: the connection routines then
 // evaluate a connection end once, without asking whether a request could change it).
 template <class Reg>
