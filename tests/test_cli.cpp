@@ -389,6 +389,27 @@ TEST_CASE("checkpoint and resume: stopped and resumed any number of times, the i
         fs::remove(dir / "ck");
     }
     const std::string ck = (dir / "ck").string();
+    {
+        // The key holds the regulariser's settings as they apply: a default written out is the
+        // same render, a value that changes the image is another.
+        const std::string opsr = scene + "--integrator pt --reg opsr ";
+        REQUIRE(sh(render + opsr + "--spp 2 --checkpoint " + ck + " -o " + (dir / "a.exr").string()).code == 0);
+        Run same = sh(render + opsr + "--reg-tail-rr 0.1 --reg-opsr-gamma 0.01 --spp 4 --resume " + ck + " -o " +
+                      (dir / "b.exr").string());
+        INFO(same.output);
+        CHECK(same.code == 0);
+        REQUIRE(sh(render + opsr + "--spp 4 -o " + (dir / "straight.exr").string()).code == 0);
+        const lt::Image a = lt::readImage((dir / "b.exr").string()), b = lt::readImage((dir / "straight.exr").string());
+        REQUIRE(a.pixels.size() == b.pixels.size());
+        CHECK(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin()));
+        for (const std::string other : {"--reg-tail-rr 0.2", "--reg-opsr-gamma 0.02", "--reg-opsr-consistent"}) {
+            Run r = sh(render + opsr + other + " --spp 4 --resume " + ck + " -o " + (dir / "x.exr").string());
+            INFO(other << "\n" << r.output);
+            CHECK(r.code == 1);
+            CHECK(r.output.find("another scene, integrator or settings") != std::string::npos);
+        }
+        fs::remove(ck);
+    }
     REQUIRE(sh(render + scene + "--integrator pt --spp 2 --checkpoint " + ck + " -o " + (dir / "a.exr").string()).code == 0);
     std::string damaged = lt::analysis::readFile(ck);
     damaged.resize(damaged.size() - 100);

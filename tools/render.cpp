@@ -52,16 +52,50 @@ void installStopHandlers() {
 // ---- Checkpoints: a text header (magic, key, passes, film bytes), then the film's state ----------
 constexpr const char* kCheckpointMagic = "lighttransport checkpoint 1";
 
+// The regulariser's settings as the integrator uses them: the defaults resolved, and only the
+// chosen regulariser's (none: its name alone). The stats JSON reports them; the checkpoint key
+// hashes them, so that a render resumed with a default written out (--reg-tail-rr 0.1,
+// --reg-opsr-gamma 0.01) or with another regulariser's option is the same render, and one with
+// any value that changes the image is another. `asUsed`: the values the integrator reads as
+// floats rounded as it rounds them (the key); else as given (the stats JSON).
+nlohmann::json regularizerSettings(const RenderSettings& s, bool asUsed) {
+    auto value = [&](double v) { return asUsed ? double(float(v)) : v; };
+    nlohmann::json j;
+    j["regularizer"] = s.regularizer;
+    const bool jg19 = s.regularizer == "jg19", both = s.regularizer == "jg19,opsr", opsr = both || s.regularizer == "opsr";
+    if (jg19 || both) {
+        j["reg_tau0"] = s.regTau > 0.0 ? s.regTau : regTauDefault(s.integrator);
+        j["reg_schedule"] = s.regSchedule;
+    }
+    if (jg19) {
+        j["reg_mis"] = s.regMis;
+        j["reg_quality"] = s.regQuality;
+        j["reg_diffusion"] = regDiffusionOf(s);
+        j["reg_specular"] = s.regSpecular;
+    }
+    if (s.regularizer == "kd13") {
+        j["reg_r0"] = s.regR0;  // (<= 0: the default, 1% of the geometry's bounding radius)
+        j["reg_lambda"] = s.regLambda;  // (< 0: the defaults, 1/6 and 1/12)
+    }
+    if (opsr) {
+        if (!s.regOpsrTable.empty()) j["reg_opsr_table"] = s.regOpsrTable;
+        else j["reg_opsr_gamma"] = value(s.regOpsrGamma >= 0.0 ? s.regOpsrGamma : double(opsr::kDefaultGamma));
+        j["reg_opsr_consistent"] = s.regOpsrConsistent;
+        j["reg_opsr_always_sample"] = s.regOpsrAlwaysSample;
+        if (s.regOpsrConsistent) j["reg_lambda"] = s.regLambda;  // (< 0: the default, 1/6)
+    }
+    if (s.regularizer != "none")
+        j["reg_tail_rr"] = value(s.regTailRr >= 0.0 ? s.regTailRr : reg::kDefaultTailThreshold);
+    return j;
+}
+
 std::string checkpointKeyOf(const std::string& scenePath, const std::map<std::string, std::string>& defines,
                             const RenderSettings& s) {
-    const std::string settings = fmt::format(
-        "integrator {}\nseed {}\nmax_depth {}\nrr_depth {}\nhide_emitters {}\npt_strategy {}\nradius {}\n"
-        "radius_alpha {}\nreg {}\nreg_tau {}\nreg_schedule {}\nreg_mis {}\nreg_quality {}\nreg_diffusion {}\n"
-        "reg_specular {}\nreg_r0 {}\nreg_lambda {}\nreg_opsr_gamma {}\nreg_opsr_table {}\nreg_opsr_consistent {}\n"
-        "reg_opsr_always_sample {}\nreg_tail_rr {}\n",
-        s.integrator, s.seed, s.maxDepth, s.rrDepth, s.hideEmitters, s.ptStrategy, s.radius, s.radiusAlpha,
-        s.regularizer, s.regTau, s.regSchedule, s.regMis, s.regQuality, regDiffusionOf(s), s.regSpecular, s.regR0,
-        s.regLambda, s.regOpsrGamma, s.regOpsrTable, s.regOpsrConsistent, s.regOpsrAlwaysSample, s.regTailRr);
+    const std::string settings =
+        fmt::format("integrator {}\nseed {}\nmax_depth {}\nrr_depth {}\nhide_emitters {}\npt_strategy {}\nradius {}\n"
+                    "radius_alpha {}\nregulariser {}\n",
+                    s.integrator, s.seed, s.maxDepth, s.rrDepth, s.hideEmitters, s.ptStrategy, s.radius,
+                    s.radiusAlpha, regularizerSettings(s, true).dump());
     return analysis::sha256Hex(analysis::hashScene(scenePath, defines).sha256 + "\n" + settings);
 }
 
@@ -461,36 +495,11 @@ int main(int argc, char** argv) {
         j["threads"] = threads;
         j["max_depth"] = settings.maxDepth;
         j["rr_depth"] = rrDepthOf(settings);
-        j["regularizer"] = settings.regularizer;
-        if (settings.regularizer == "jg19") {
-            j["reg_tau0"] = settings.regTau > 0.0 ? settings.regTau : regTauDefault(settings.integrator);
-            j["reg_schedule"] = settings.regSchedule;
-            j["reg_mis"] = settings.regMis;
-            j["reg_quality"] = settings.regQuality;
-            j["reg_diffusion"] = regDiffusionOf(settings);
-            j["reg_specular"] = settings.regSpecular;
-            j["reg_tau_last"] = stats.tau;
-        }
-        if (settings.regularizer == "kd13") {
-            j["reg_r0"] = settings.regR0;  // (-1: the default, 1% of the geometry's bounding radius)
-            j["reg_lambda"] = settings.regLambda;  // (-1: the defaults, 1/6 and 1/12)
-            j["reg_r_last"] = stats.tau;  // r_N of one mollified vertex at the last pass
-        }
-        if (settings.regularizer == "jg19,opsr") {
-            j["reg_tau0"] = settings.regTau > 0.0 ? settings.regTau : regTauDefault(settings.integrator);
-            j["reg_schedule"] = settings.regSchedule;
-            j["reg_tau_last"] = stats.tau;
-        }
-        if (settings.regularizer == "opsr" || settings.regularizer == "jg19,opsr") {
-            if (!settings.regOpsrTable.empty()) j["reg_opsr_table"] = settings.regOpsrTable;
-            else j["reg_opsr_gamma"] = settings.regOpsrGamma >= 0.0 ? settings.regOpsrGamma : double(opsr::kDefaultGamma);
-            j["reg_opsr_consistent"] = settings.regOpsrConsistent;
-            j["reg_opsr_always_sample"] = settings.regOpsrAlwaysSample;
-            if (settings.regOpsrConsistent) j["reg_lambda"] = settings.regLambda;  // (-1: the default, 1/6)
-            if (settings.regularizer == "opsr") j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: none)
-        }
+        j.update(regularizerSettings(settings, false));
+        if (settings.regularizer == "jg19" || settings.regularizer == "jg19,opsr") j["reg_tau_last"] = stats.tau;
+        if (settings.regularizer == "kd13") j["reg_r_last"] = stats.tau;  // r_N of one mollified vertex at the last pass
+        if (settings.regularizer == "opsr") j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: none)
         if (settings.regularizer != "none") {
-            j["reg_tail_rr"] = settings.regTailRr >= 0.0 ? settings.regTailRr : reg::kDefaultTailThreshold;
             j["contributions"] = stats.contributions;
             j["regularised_contributions"] = stats.regularisedContributions;
             j["regularised_share"] = regShare;
