@@ -22,6 +22,13 @@ namespace {
 
 Run run(const std::string& args) { return sh(std::string(LT_RENDER_BIN) + " " + args); }
 
+// Whether two image files hold the same pixels, bit for bit (a resumed render against one run
+// straight through).
+bool samePixels(const fs::path& a, const fs::path& b) {
+    const lt::Image ia = lt::readImage(a.string()), ib = lt::readImage(b.string());
+    return ia.pixels.size() == ib.pixels.size() && std::equal(ia.pixels.begin(), ia.pixels.end(), ib.pixels.begin());
+}
+
 fs::path tempDir(const std::string& name) { return lt::test::tempDir("lt_cli", name); }
 
 }  // namespace
@@ -350,9 +357,7 @@ TEST_CASE("SIGINT stops a render after the pass in flight and writes the image o
     CHECK(r.output.find("holds " + std::to_string(spp) + " spp of the 1000000 asked") != std::string::npos);
     Run straight = sh(render + "-D res=64 --spp " + std::to_string(spp) + " -o " + (dir / "s.exr").string());
     REQUIRE(straight.code == 0);
-    const lt::Image a = lt::readImage((dir / "i.exr").string()), b = lt::readImage((dir / "s.exr").string());
-    REQUIRE(a.pixels.size() == b.pixels.size());
-    CHECK(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin()));
+    CHECK(samePixels(dir / "i.exr", dir / "s.exr"));
 
     Run twice = sh("bash -c '" + render + "-D res=2048 --spp 100 -o " + (dir / "big.exr").string() +
                    " & pid=$!; sleep 0.8; kill -TERM $pid; sleep 0.1; kill -TERM $pid; wait $pid; echo exit=$?'");
@@ -382,9 +387,7 @@ TEST_CASE("checkpoint and resume: stopped and resumed any number of times, the i
         INFO(last.output);
         REQUIRE(last.code == 0);
         REQUIRE(sh(render + args + "--spp 8 -o " + (dir / "straight.exr").string()).code == 0);
-        const lt::Image a = lt::readImage((dir / "c.exr").string()), b = lt::readImage((dir / "straight.exr").string());
-        REQUIRE(a.pixels.size() == b.pixels.size());
-        CHECK(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin()));
+        CHECK(samePixels(dir / "c.exr", dir / "straight.exr"));
         CHECK(nlohmann::json::parse(std::ifstream(dir / "c.json"))["spp"].get<int>() == 8);
         fs::remove(dir / "ck");
     }
@@ -399,9 +402,7 @@ TEST_CASE("checkpoint and resume: stopped and resumed any number of times, the i
         INFO(same.output);
         CHECK(same.code == 0);
         REQUIRE(sh(render + opsr + "--spp 4 -o " + (dir / "straight.exr").string()).code == 0);
-        const lt::Image a = lt::readImage((dir / "b.exr").string()), b = lt::readImage((dir / "straight.exr").string());
-        REQUIRE(a.pixels.size() == b.pixels.size());
-        CHECK(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin()));
+        CHECK(samePixels(dir / "b.exr", dir / "straight.exr"));
         for (const std::string other : {"--reg-tail-rr 0.2", "--reg-opsr-gamma 0.02", "--reg-opsr-consistent"}) {
             Run r = sh(render + opsr + other + " --spp 4 --resume " + ck + " -o " + (dir / "x.exr").string());
             INFO(other << "\n" << r.output);
