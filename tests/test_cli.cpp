@@ -415,6 +415,9 @@ TEST_CASE("checkpoint and resume: stopped and resumed any number of times, the i
     std::string damaged = lt::analysis::readFile(ck);
     damaged.resize(damaged.size() - 100);
     std::ofstream((dir / "damaged").string(), std::ios::binary) << damaged;
+    std::string earlier = lt::analysis::readFile(ck);  // a checkpoint of version 1 (another key)
+    earlier.replace(0, earlier.find('\n'), "lighttransport checkpoint 1");
+    std::ofstream((dir / "earlier").string(), std::ios::binary) << earlier;
     for (const auto& [args, words] : std::vector<std::pair<std::string, std::string>>{
              {scene + "--integrator bpt --spp 4 --resume " + ck, "another scene, integrator or settings"},
              {std::string(LT_SOURCE_DIR) + "/scenes/cornell-box.xml -D res=24 -q --integrator pt --spp 4 --resume " + ck,
@@ -423,6 +426,7 @@ TEST_CASE("checkpoint and resume: stopped and resumed any number of times, the i
               "another scene, integrator or settings"},
              {scene + "--integrator pt --spp 4 --seed 9 --resume " + ck, "another scene, integrator or settings"},
              {scene + "--integrator pt --spp 4 --resume " + (dir / "damaged").string(), "truncated or damaged"},
+             {scene + "--integrator pt --spp 4 --resume " + (dir / "earlier").string(), "another version"},
              {scene + "--integrator pt --spp 1 --resume " + ck, "more than the 1 spp asked"},
              {scene + "--integrator pt --time 1 --checkpoint " + ck, "need a sample count"}}) {
         Run r = sh(render + args + " -o " + (dir / "x.exr").string());

@@ -50,7 +50,9 @@ void installStopHandlers() {
 }
 
 // ---- Checkpoints: a text header (magic, key, passes, film bytes), then the film's state ----------
-constexpr const char* kCheckpointMagic = "lighttransport checkpoint 1";
+// (2: the key holds the regulariser's settings as they apply, regularizerSettings; a version-1
+// checkpoint's key could not match, and is refused by its magic instead)
+constexpr const char* kCheckpointMagic = "lighttransport checkpoint 2";
 
 // The regulariser's settings as the integrator uses them: the defaults resolved, and only the
 // chosen regulariser's (none: its name alone). The stats JSON reports them; the checkpoint key
@@ -113,7 +115,10 @@ void readCheckpoint(const std::string& path, const std::string& key, uint64_t& p
     std::string magic, word, fileKey;
     size_t bytes = 0;
     std::getline(in, magic);
-    if (magic != kCheckpointMagic) throw std::runtime_error("not a checkpoint of this renderer");
+    if (magic != kCheckpointMagic)
+        throw std::runtime_error(magic.rfind("lighttransport checkpoint ", 0) == 0
+                                     ? "a checkpoint of another version of this renderer ('" + magic + "')"
+                                     : "not a checkpoint of this renderer");
     if (!(in >> word >> fileKey) || word != "key") throw std::runtime_error("malformed header (key)");
     if (!(in >> word >> passes) || word != "passes") throw std::runtime_error("malformed header (passes)");
     if (!(in >> word >> bytes) || word != "bytes") throw std::runtime_error("malformed header (bytes)");

@@ -302,7 +302,8 @@ struct None {
     bool mergeable(const PathVertex& v) const;
     void beginIteration(uint64_t, const Scene&, const MisConfig&) {}
     // (5) Nothing regularised; every technique contributes.
-    bool select(Technique&) const { return true; }    // (10)
+    bool select(Technique&) const { return true; }
+    // (10) Every next-event estimation is plain.
     bool plainNextEvent(const PathVertex&) const { return true; }
 };
 // The unregularised policy as a value, for callers that pass it directly (the tests).
