@@ -636,3 +636,47 @@ TEST_CASE("OPSR with JG19's bound in BPT counts no light twice", "[opsr][jg19][b
     CHECK(std::abs((regSum - singularSum) / vcmSum - 1.0) < 0.03);
     std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("OPSR's vertex predicates read the roughness and the delta flag first, as the full tests would answer", "[opsr]") {
+    // mayChange and smooth (opsr.h) test a vertex's roughness (below 1) or delta flag before its
+    // kind, and leave out "has a BSDF" and "not at infinity": a vertex without a BSDF or at
+    // infinity has roughness 1 and no delta flag (SurfacePoint, PathVertex::setPoint). Every
+    // vertex the walks, the light samples and the camera make, on scenes with a glossy conductor,
+    // glass, a mirror and an environment light (vertices at infinity), must get the full tests'
+    // answers; a vertex kind whose record breaks the rule fails here.
+    int infinite = 0, lights = 0, changeable = 0, smoothCount = 0, checked = 0;
+    auto check = [&](const PathVertex& v) {
+        const bool surface = v.kind == VertexKind::Surface && !v.infinite && v.bxdf;
+        INFO("kind " << int(v.kind) << " infinite " << v.infinite << " roughness " << v.roughness);
+        CHECK(reg::Opsr::mayChange(v) == (surface && v.roughness < 1.f));
+        CHECK(reg::Opsr::smooth(v) == (surface && v.deltaBsdf));
+        ++checked;
+        infinite += v.infinite;
+        lights += v.kind == VertexKind::Light;
+        changeable += surface && v.roughness < 1.f;
+        smoothCount += surface && v.deltaBsdf;
+    };
+    for (const char* name : {"cornell-box-ggx", "cornell-box-glass-sphere", "smallvcm/small-spheres-background"}) {
+        INFO(name);
+        const Scene scene(loadScene(std::string(LT_SOURCE_DIR) + "/scenes/" + name + ".xml", {{"res", "16"}}));
+        const reg::Opsr op = opsrFor(TechniqueSet::Bidirectional, false, 0.01f);
+        check(cameraEndpoint(scene, op));
+        std::array<PathVertex, kMaxPathVertices> y, z;
+        WalkStats ws;
+        for (uint64_t i = 0; i < 300; ++i) {
+            Rng rng(i, 71);
+            const int ny = lightWalk(scene, op, rng, 8, 100, y.data(), ws);
+            const int nz = cameraWalk(scene, op, Vec2(rng.uniform() * 16, rng.uniform() * 16), rng, 8, 100, z.data(), ws);
+            for (int j = 0; j < ny; ++j) check(y[j]);
+            for (int j = 0; j < nz; ++j) check(z[j]);
+            PathVertex light;
+            if (nz >= 2 && sampleLightVertex(scene, op, z[1].p, rng, light)) check(light);
+        }
+    }
+    // (each kind of vertex met: at infinity, light endpoints and samples, glossy and smooth ones)
+    CHECK(infinite > 0);
+    CHECK(lights > 0);
+    CHECK(changeable > 0);
+    CHECK(smoothCount > 0);
+    INFO("checked " << checked);
+}

@@ -317,14 +317,13 @@ public:
     }
     // A surface vertex whose BSDF a request may change: a roughness below 1 (Lambert counts 1, and
     // a microfacet lobe at alpha >= 1 cannot be made rougher). request() decides the rest.
-    static bool mayChange(const PathVertex& v) {
-        return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.roughness < 1.f;
-    }
+    // (A vertex without a BSDF or at infinity has roughness 1: SurfacePoint, PathVertex::setPoint.
+    // So the roughness decides first, and Lambert's 1 answers the commonest case in one test.)
+    static bool mayChange(const PathVertex& v) { return v.roughness < 1.f && v.kind == VertexKind::Surface; }
     // A smooth surface vertex (a delta BSDF, not at infinity), and a glossy one (a lobe a request
     // may make rougher, not smooth).
-    static bool smooth(const PathVertex& v) {
-        return v.kind == VertexKind::Surface && !v.infinite && v.bxdf && v.deltaBsdf;
-    }
+    // (deltaBsdf is false without a BSDF and at infinity: PathVertex::setPoint)
+    static bool smooth(const PathVertex& v) { return v.deltaBsdf && v.kind == VertexKind::Surface; }
     static bool glossy(const PathVertex& v) { return mayChange(v) && !v.deltaBsdf; }
     // (4) Whether the path tracer's walk sample at v is the emitter-hit technique for v's request g.
     // Not with JG19's bound (6): its alpha_hat is many times a glossy lobe's alpha (on

@@ -92,9 +92,11 @@ inline void applyContinuation(BsdfEval& e, const Bxdf& b) {
 // (A smooth BSDF, a connection end only under a request: its plain value and densities are 0
 // for every pair, and the request's evaluation says itself whether the request leaves it a delta,
 // so neither the plain evaluation nor requestCanChange's question is asked.)
+// (Inlined into each routine: as a call, the context and the evaluation went through memory;
+// measured -0.8% instructions for BPT with OPSR on cornell-box-ggx, the same for plain BPT.)
 template <bool mayRequest = true>
-inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx, float& ratio,
-                                 float& regularisedPdf) {
+[[gnu::always_inline]] inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx,
+                                                        float& ratio, float& regularisedPdf) {
     const bool request = mayRequest && !ctx.reg.empty();
     BsdfEval e;
     if (!(request && v.deltaBsdf)) e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
