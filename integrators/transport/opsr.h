@@ -302,7 +302,7 @@ public:
             if (settings_.bidirectional) return true;
             if (tech.t < 3 || !mayChange(tech.z[tech.t - 2])) return !tech.regularisedSample;
         } else if (!mayChange(tech.y[tech.s - 1]) && !mayChange(tech.z[tech.t - 1])) {
-            return tech.y[tech.s - 1].connectible() && tech.z[tech.t - 1].connectible();
+            return true;  // (both ends connectible: regularizer.h (5); neither is smooth here)
         }
         return selectRequest(tech);
     }

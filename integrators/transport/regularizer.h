@@ -66,6 +66,9 @@
 //        MIS weights of the techniques that can sample it sum to one with no light counted twice.
 //        Returns false when the technique's weight on this path is 0 (the routine then returns
 //        nothing, before its shadow ray). None: regularises nothing, returns true.
+//        The ends of a connection are connectible(v) when select() is asked (the integrators
+//        connect only there, and connect checks its surface ends; endpoints have no delta flag),
+//        so a policy need not ask again.
 //  (6) Optional: the path tracer's regularised BSDF sample (OPSR, opsr.h (4)).
 //        kEmitterSample = true and emitterSample(z, t, ctx): where it returns true, the path
 //        tracer's emitter-hit technique through camera vertex z[t-1] is a BSDF sample drawn there
