@@ -25,8 +25,14 @@ struct CountingState : reg::None {
     }
 };
 
-// (1) A minimum alpha at both ends of every connection and at the camera vertex of every merge.
+// (1) A minimum alpha at both ends of every connection and at the camera vertex of every merge,
+// which select() names (regularizer.h (5): the context carries a request only there).
 struct RougherAtConnections : reg::None {
+    bool select(Technique& tech) const {
+        tech.regularised[0] = tech.s - 1;  // (a merge's camera vertex)
+        tech.regularised[1] = tech.photon ? -1 : tech.s;
+        return true;
+    }
     BsdfContext context(const Technique&, End end) const {
         RegularizationRequest r;
         r.minAlpha = Roughness{0.4f, 0.4f};

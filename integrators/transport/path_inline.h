@@ -278,6 +278,11 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
         c.raster = *raster;
     }
     if (!reg.select(tech)) return false;  // regularizer.h (5)
+    // With nothing regularised both ends' contexts are the plain ones (regularizer.h (5)): the
+    // evaluations then skip the policy's context and the request's tests (BPT and VCM, where
+    // most connections are plain; the path tracer runs the plain routine at such vertices
+    // already, regularizer.h (10), and its policy routine is left as it was).
+    const bool request = reg::kMayRequest<Reg> && (nee || anyRegularised(tech));
     Vec3 d = a.p - b.p;
     const float abDist2 = glm::dot(d, d);  // the segment's squared length, for the densities
     if (!(abDist2 > 0.f)) return false;
@@ -297,8 +302,9 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
         eb.pdfFwd = cam.directionPdf(wBA);
         cosB = glm::dot(cam.forward(), wBA);
     } else {
-        eb = detail::evalAtConnection<reg::kMayRequest<Reg>>(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera,
-                                                             tech.pdfCamera);
+        eb = request ? detail::evalAtConnection<true>(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera,
+                                                      tech.pdfCamera)
+                     : detail::evalAtConnection<false>(b, wBA, kRadianceContext, tech.ratioCamera, tech.pdfCamera);
         cosB = std::abs(glm::dot(b.shading.n, wBA));
     }
     if (isBlack(eb.f)) return false;
@@ -307,8 +313,9 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     if (aLight) {
         fa = detail::lightEndpointValue(a, -wBA);
     } else {
-        ea = detail::evalAtConnection<reg::kMayRequest<Reg>>(a, -wBA, reg.context(tech, End::Light), tech.ratioLight,
-                                                             tech.pdfLight);
+        ea = request ? detail::evalAtConnection<true>(a, -wBA, reg.context(tech, End::Light), tech.ratioLight,
+                                                      tech.pdfLight)
+                     : detail::evalAtConnection<false>(a, -wBA, kImportanceContext, tech.ratioLight, tech.pdfLight);
         fa = ea.f;
     }
     if (isBlack(fa)) return false;

@@ -60,7 +60,9 @@
 //  (5) Which vertices of the path are regularised.
 //        select(tech): the first thing connect, emitterHit and merge do, before any evaluation.
 //        Writes tech.regularised, the x indices (path.h) of the path's vertices evaluated with the
-//        request; context(tech, end) is the request's context only at those. A policy whose
+//        request; context(tech, end) is the request's context only at those (connect evaluates a
+//        connection with nothing regularised with the plain contexts, without asking;
+//        tests/test_seam_contract.cpp holds every policy to it). A policy whose
 //        choice is a function of the path (the same for every technique that can produce it;
 //        JG19's quality heuristic) makes every technique estimate one integrand per path, so the
 //        MIS weights of the techniques that can sample it sum to one with no light counted twice.
