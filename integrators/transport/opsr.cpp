@@ -71,7 +71,7 @@ std::shared_ptr<const AttenuationTable> loadAttenuationTable(const std::string& 
     return table;
 }
 
-int roughnessBin(float a) {
+int binByFormula(float a) {
     // (the commonest roughnesses, smooth 0 and Lambert 1, without exp2: exactly the formula's bins)
     if (a <= 0.f) return 0;
     if (a >= 1.f) return kQ - 1;
@@ -80,7 +80,7 @@ int roughnessBin(float a) {
 }
 
 float binCoordinate(float a) {
-    if (a <= 0.f) return 0.f;  // (as roughnessBin: exactly the formula's values at 0 and 1)
+    if (a <= 0.f) return 0.f;  // (as binByFormula: exactly the formula's values at 0 and 1)
     if (a >= 1.f) return float(kQ - 1);
     return std::min((std::exp2(std::sqrt(a)) - 1.f) * float(kQ + 1), float(kQ - 1));
 }

@@ -123,7 +123,13 @@ struct AttenuationTable {
 std::shared_ptr<const AttenuationTable> loadAttenuationTable(const std::string& path, const std::string& set);
 
 // (2) The bin of a roughness, its continuous coordinate, and the table index of a window.
-int roughnessBin(float a);
+// roughnessBin is the formula's bin, read from its edges (measured: the formula's exp2 and sqrt per
+// window vertex were a third of BPT's cost of a table): kBinEdges[i] is the least float whose bin
+// by the formula is i + 1. The formula is non-decreasing over every float in (0, 1), so the edges
+// give its bin for every float; test_opsr checks both over all of them (binByFormula).
+inline constexpr float kBinEdges[kQ - 1] = {0x1.1b63ecp-4f, 0x1.e296d4p-3f, 0x1.d6d0f6p-2f};
+inline int roughnessBin(float a) { return int(a >= kBinEdges[0]) + int(a >= kBinEdges[1]) + int(a >= kBinEdges[2]); }
+int binByFormula(float a);  // min(floor((2^sqrt(a) - 1)(Q + 1)), Q - 1); 0 at a <= 0, Q - 1 at a >= 1
 float binCoordinate(float a);
 int windowIndex(const float* a, int k);
 // The attenuation factor of the window a[0..k-1] (2 <= k <= 5): the nearest-bin entry or the
