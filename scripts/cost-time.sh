@@ -9,7 +9,8 @@
 #   bash scripts/cost-time.sh [OUT] [ROUNDS]   (default out/cost-time, 7 rounds)
 # 128x128, 2 threads, seed 1; 48 spp for PT, 16 for BPT and VCM (0.1-1 s a render). Writes
 # OUT/rounds.csv (scene, integrator, configuration, round, seconds, ratio to that round's none)
-# and OUT/cost-time.md. About 10 minutes with 7 rounds.
+# and OUT/cost-time.md. About 10 minutes with 7 rounds. COST_CONFIGS and COST_SCENES choose other
+# configurations and scenes (scripts/cost-common.sh; set them for ROUNDS 0 too).
 # ROUNDS 0: no renders, only the table from an existing OUT/rounds.csv (e.g. the rounds of two runs
 # appended into one file: the tables' medians then cover both).
 set -euo pipefail
