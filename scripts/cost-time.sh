@@ -7,7 +7,9 @@
 # within its round, and the table gives the median over the rounds (min-max in OUT/rounds.csv),
 # followed by the cells over and under 1.15 in at least 6/7 of the rounds.
 #   bash scripts/cost-time.sh [OUT] [ROUNDS]   (default out/cost-time, 7 rounds)
-# 128x128, 2 threads, seed 1; 48 spp for PT, 16 for BPT and VCM (0.1-1 s a render). Writes
+# 128x128, 2 threads, seed 1; 48 spp for PT, 16 for BPT and VCM (0.1-1 s a render; COST_SPP_SCALE=K
+# renders K times as many, for a finer ratio on a busy machine: a render of 0.1 s is dominated by
+# its start and the threads' scheduling). Writes
 # OUT/rounds.csv (scene, integrator, configuration, round, seconds, ratio to that round's none)
 # and OUT/cost-time.md. About 10 minutes with 7 rounds. COST_CONFIGS and COST_SCENES choose other
 # configurations and scenes (scripts/cost-common.sh; set them for ROUNDS 0 too).
@@ -26,7 +28,9 @@ fi
 
 # shellcheck source=scripts/cost-common.sh
 source scripts/cost-common.sh
-sppOf() { [ "$1" = pt ] && echo 48 || echo 16; }
+scale="${COST_SPP_SCALE:-1}"
+[[ "$scale" =~ ^[1-9][0-9]*$ ]] || { echo "COST_SPP_SCALE must be a positive integer, got '$scale'" >&2; exit 1; }
+sppOf() { [ "$1" = pt ] && echo $((48 * scale)) || echo $((16 * scale)); }
 seconds() { sed -n 's/.*"seconds": \([0-9.e+-]*\).*/\1/p' "$1"; }
 
 [ "$rounds" = 0 ] || echo "scene,integrator,configuration,round,seconds,ratio" > "$out/rounds.csv"
@@ -61,7 +65,7 @@ awk -F, 'NR > 1 && $3 != "none" {
   }
   END { for (i = 1; i <= nk; ++i) print order[i] "," median(order[i]) }' "$out/rounds.csv" |
   awk -F, -v configs="${configs[*]:1}" -f scripts/cost-table.awk \
-    -v title="Render-loop seconds per sample over those of the same integrator without a regulariser (128x128, 2 threads, seed 1; PT 48 spp, BPT and VCM 16; the median over rounds of the ratio within a round)." \
+    -v title="Render-loop seconds per sample over those of the same integrator without a regulariser (128x128, 2 threads, seed 1; PT $(sppOf pt) spp, BPT and VCM $(sppOf bpt); the median over rounds of the ratio within a round)." \
     > "$out/cost-time.md"
 # Against the issues' 1.15: a cell is over (under) when at least 6/7 of its rounds are (its
 # (k+1)-th lowest, or highest, round, k = floor(n / 7) of n rounds); the others are on the line.
