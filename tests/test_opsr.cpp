@@ -94,7 +94,7 @@ TEST_CASE("OPSR bins, window indices and Eq. 11 by hand", "[opsr]") {
     CHECK(opsr::roughnessBin(std::nextafter(1.f, 0.f)) == 3);
     CHECK(opsr::binCoordinate(std::nextafter(1.f, 0.f)) == 3.f);
     CHECK(opsr::binCoordinate(std::nextafter(0.f, 1.f)) == Approx(0.f).margin(1e-6));
-    // The edges are the formula's (kBinEdges[i] the least float of bin i + 1)...
+    // The edges are the formula's: kBinEdges[i] is the least float of bin i + 1.
     for (int i = 0; i < opsr::kQ - 1; ++i) {
         CHECK(opsr::binByFormula(opsr::kBinEdges[i]) == i + 1);
         CHECK(opsr::binByFormula(std::nextafter(opsr::kBinEdges[i], 0.f)) == i);
