@@ -678,5 +678,5 @@ TEST_CASE("OPSR's vertex predicates read the roughness and the delta flag first,
     CHECK(lights > 0);
     CHECK(changeable > 0);
     CHECK(smoothCount > 0);
-    INFO("checked " << checked);
+    CHECK(checked > 5000);  // (8,979 with these seeds: the walks are not cut short)
 }
