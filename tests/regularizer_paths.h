@@ -1,6 +1,6 @@
-// Fixtures shared by the regularisers' tests (test_jg19.cpp, test_kd13.cpp): a box with glossy,
-// smooth glass and mirror surfaces, paths built by hand on a line, and every connection of two
-// walked subpaths.
+// Fixtures shared by the regularisers' tests (test_jg19*.cpp, test_kd13.cpp, test_opsr*.cpp and
+// others): a box with glossy, smooth glass and mirror surfaces, paths built by hand on a line, and
+// every connection of two walked subpaths.
 #pragma once
 #include <array>
 #include <catch2/catch.hpp>

@@ -66,7 +66,7 @@ TEST_CASE("A regulariser's value that is not a number refuses its technique and 
         CHECK(kd.invalidValues() >= 1);
     }
     SECTION("JG19: the bound tau' = tau / sigma where the diffusion heuristic's spread sigma is NaN") {
-        // L S D E of a point light in glass (test_jg19's hand computation): with tau under
+        // L S D E of a point light in glass (test_jg19_heuristics's hand computation): with tau under
         // sqrt(q), BPT regularises the glass, x1, and the connection S-D (s = 2) contributes.
         Scene scene(mixedScene(16));
         const double camBound = scene.camera().directionPdf(scene.camera().forward()).value;
