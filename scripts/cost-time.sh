@@ -35,7 +35,7 @@ seconds() { sed -n 's/.*"seconds": \([0-9.e+-]*\).*/\1/p' "$1"; }
 
 [ "$rounds" = 0 ] || echo "scene,integrator,configuration,round,seconds,ratio" > "$out/rounds.csv"
 for sc in "${scenes[@]}"; do
-  for i in pt bpt vcm; do
+  for i in "${integrators[@]}"; do
     for ((r = 1; r <= rounds; ++r)); do
       base=""
       for c in "${configs[@]}"; do
@@ -64,7 +64,7 @@ awk -F, 'NR > 1 && $3 != "none" {
     return n % 2 ? a[(n + 1) / 2] : (a[n / 2] + a[n / 2 + 1]) / 2
   }
   END { for (i = 1; i <= nk; ++i) print order[i] "," median(order[i]) }' "$out/rounds.csv" |
-  awk -F, -v configs="${configs[*]:1}" -f scripts/cost-table.awk \
+  awk -F, -v configs="${configs[*]:1}" -v integrators="${integrators[*]}" -f scripts/cost-table.awk \
     -v title="Render-loop seconds per sample over those of the same integrator without a regulariser (128x128, 2 threads, seed 1; PT $(sppOf pt) spp, BPT and VCM $(sppOf bpt); the median over rounds of the ratio within a round)." \
     > "$out/cost-time.md"
 # Against the issues' 1.15: a cell is over (under) when at least 6/7 of its rounds are (its

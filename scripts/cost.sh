@@ -23,7 +23,7 @@ mkdir -p "$out/runs"
 source scripts/cost-common.sh
 
 for sc in "${scenes[@]}"; do
-  for i in pt bpt vcm; do
+  for i in "${integrators[@]}"; do
     for c in "${configs[@]}"; do
       for spp in 2 10; do
         name="$(echo "$sc" | tr / _)-$i-$c-$spp"
@@ -36,7 +36,7 @@ done | xargs -P "$(nproc)" -I{} sh -c '{} >/dev/null 2>&1 || { echo "cost.sh: fa
 count() { awk '/^summary:/ {print $2; exit}' "$out/runs/$1.cg"; }
 echo "scene,integrator,configuration,instructions_2spp,instructions_10spp" > "$out/totals.csv"
 for sc in "${scenes[@]}"; do
-  for i in pt bpt vcm; do
+  for i in "${integrators[@]}"; do
     for c in "${configs[@]}"; do
       name="$(echo "$sc" | tr / _)-$i-$c"
       echo "$sc,$i,$c,$(count "$name-2"),$(count "$name-10")" >> "$out/totals.csv"
@@ -50,7 +50,7 @@ awk -F, 'NR == 1 { next }
   { n[$1 "," $2 "," $3] = $5 - $4; if ($3 != "none") key[++nk] = $1 "," $2 "," $3 }
   END { for (i = 1; i <= nk; ++i) { split(key[i], f, ","); print key[i] "," n[key[i]] / n[f[1] "," f[2] ",none"] } }' \
   "$out/totals.csv" |
-  awk -F, -v configs="${configs[*]:1}" -f scripts/cost-table.awk \
+  awk -F, -v configs="${configs[*]:1}" -v integrators="${integrators[*]}" -f scripts/cost-table.awk \
     -v title="Instructions per sample over those of the same integrator without a regulariser (48x48, 1 thread, seed 1; renders of 10 and 2 spp, their difference)." \
     > "$out/cost.md"
 cat "$out/cost.md"
