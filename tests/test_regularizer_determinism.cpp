@@ -37,8 +37,13 @@ TEST_CASE("regularised images are bit-identical for 1 and 3 threads and depend o
     std::vector<Config> configs = {
         {"jg19", [](RenderSettings& s) { s.regularizer = "jg19"; }},
         // (a wide cone, r_0 0.65 as test_kd13's for BPT's light tracing through the glass, so that
-        // BPT and VCM mollify paths at 20^2 and 3 spp too; its default schedule N^-1/6 shrinks it)
-        {"kd13", [](RenderSettings& s) { s.regularizer = "kd13", s.regR0 = 0.65; }},
+        // BPT and VCM mollify paths at this size and 3 spp too; its default schedule N^-1/6
+        // shrinks it)
+        {"kd13",
+         [](RenderSettings& s) {
+             s.regularizer = "kd13";
+             s.regR0 = 0.65;
+         }},
         {"opsr", [](RenderSettings& s) { s.regularizer = "opsr"; }},
         {"jg19,opsr", [](RenderSettings& s) { s.regularizer = "jg19,opsr"; }},
     };
