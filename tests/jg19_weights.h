@@ -10,7 +10,7 @@ namespace lt::test {
 
 // (Without the diffusion heuristic unless asked: the hand computations of q use tau itself.)
 inline reg::Jg19 fixedTau(double tau, const Scene& scene, const MisConfig& cfg, bool diffusion = false,
-                   reg::SpecularMode specular = reg::SpecularMode::Ggx) {
+                          reg::SpecularMode specular = reg::SpecularMode::Ggx) {
     reg::Jg19Settings js;
     js.tau0 = tau;
     js.schedule = reg::Schedule::Fixed;
