@@ -4,6 +4,7 @@
 #pragma once
 #include <array>
 #include <catch2/catch.hpp>
+#include <string>
 #include <vector>
 #include "core/image.h"
 #include "integrators/integrator.h"
@@ -12,6 +13,11 @@
 #include "scene_builders.h"
 
 namespace lt::test {
+
+// The OPSR authors' reference attenuation file, beside the project (loaded by path, never copied;
+// a test that needs it skips with a warning where a clone lacks ../shared/data/opsr).
+inline const std::string kOpsrReferenceFile =
+    std::string(LT_SHARED_DIR) + "/data/opsr/opsr-reference-attenuation.json";
 
 // Glossy panel (GGX alpha 0.05), a smooth glass sphere and a smooth mirror ball in the box.
 inline SceneDesc mixedScene(int res) {

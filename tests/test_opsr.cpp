@@ -22,8 +22,6 @@ using namespace lt::test;
 
 namespace {
 
-const std::string kReferenceFile = std::string(LT_SHARED_DIR) + "/data/opsr/opsr-reference-attenuation.json";
-
 // A table whose window of k vertices has the constant factor 0.1 k (hand arithmetic).
 std::shared_ptr<opsr::AttenuationTable> constantTable() {
     auto t = std::make_shared<opsr::AttenuationTable>();
@@ -229,14 +227,14 @@ TEST_CASE("OPSR interp sets: multilinear look-ups between bin centres, by hand",
 
 TEST_CASE("OPSR attenuation file: the reference loads, a truncated or corrupt copy is rejected naming file and field", "[opsr][file]") {
     const auto dir = tempDir("lt_opsr", "tables");
-    if (!std::filesystem::exists(kReferenceFile)) {
-        WARN("skipped: " << kReferenceFile << " is not there (a clone without ../shared/data/opsr)");
+    if (!std::filesystem::exists(kOpsrReferenceFile)) {
+        WARN("skipped: " << kOpsrReferenceFile << " is not there (a clone without ../shared/data/opsr)");
         return;
     }
-    const nlohmann::json j = nlohmann::json::parse(readText(kReferenceFile));
+    const nlohmann::json j = nlohmann::json::parse(readText(kOpsrReferenceFile));
     for (const char* set : {"low", "moderate", "strong", "aggressive", "interp_low", "interp_moderate"}) {
         INFO(set);
-        const auto t = opsr::loadAttenuationTable(kReferenceFile, set);
+        const auto t = opsr::loadAttenuationTable(kOpsrReferenceFile, set);
         CHECK(t->interpolated == (std::string(set).find("interp") == 0));
         for (int k = 2; k <= 5; ++k) {
             const auto& arr = j["sets"][set]["tables"][std::to_string(k)];
@@ -261,7 +259,7 @@ TEST_CASE("OPSR attenuation file: the reference loads, a truncated or corrupt co
             for (const auto& m : mentions) CHECK(msg.find(m) != std::string::npos);
         }
     };
-    const std::string full = readText(kReferenceFile);
+    const std::string full = readText(kOpsrReferenceFile);
     rejects("truncated.json", full.substr(0, full.size() / 2), "low", {"malformed JSON", "line"});
     nlohmann::json shortTable = j;
     shortTable["sets"]["low"]["tables"]["3"].erase(63);
@@ -380,8 +378,8 @@ TEST_CASE("OPSR 'low' renders the point light in glass that plain PT cannot, wit
     // against 2.76; checked under 0.8 times plain PT's. The image mean: 0.85 against VCM's 0.80
     // here, 0.80 and 1.31 at 64^2 (heavy-tailed: checked to within a factor 2). Needs the
     // reference file (skipped without it).
-    if (!std::filesystem::exists(kReferenceFile)) {
-        WARN("skipped: " << kReferenceFile << " is not there");
+    if (!std::filesystem::exists(kOpsrReferenceFile)) {
+        WARN("skipped: " << kOpsrReferenceFile << " is not there");
         return;
     }
     SceneDesc desc = loadScene(std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml", {{"res", "32"}});
@@ -392,7 +390,7 @@ TEST_CASE("OPSR 'low' renders the point light in glass that plain PT cannot, wit
     p.maxDepth = 8;
     RenderSettings o = p;
     o.regularizer = "opsr";
-    o.regOpsrTable = kReferenceFile + ":low";
+    o.regOpsrTable = kOpsrReferenceFile + ":low";
     RenderStats a, b, c;
     const Image ref = renderImage(scene, v, a), plain = renderImage(scene, p, b), reg = renderImage(scene, o, c);
     auto trimmedRelMse = [&](const Image& img) {
@@ -528,8 +526,8 @@ TEST_CASE("OPSR 'moderate' on the rough-and-smooth glass caustics: less error th
     // PT's (measured 0.44x; plain PT's mean varies by about 25% between disjoint seed sets, so
     // 0.7 leaves that margin). KD13 changes nothing here (an area light: every path is
     // samplable): bit-identical to plain PT.
-    if (!std::filesystem::exists(kReferenceFile)) {
-        WARN("SKIPPED: " << kReferenceFile << " not found (the OPSR reference attenuation file)");
+    if (!std::filesystem::exists(kOpsrReferenceFile)) {
+        WARN("SKIPPED: " << kOpsrReferenceFile << " not found (the OPSR reference attenuation file)");
         return;
     }
     const std::string dir = std::string(LT_SOURCE_DIR) + "/scenes/hard/";
@@ -542,7 +540,7 @@ TEST_CASE("OPSR 'moderate' on the rough-and-smooth glass caustics: less error th
         p.seed = seed;
         RenderSettings o = p, k = p;
         o.regularizer = "opsr";
-        o.regOpsrTable = kReferenceFile + ":moderate";
+        o.regOpsrTable = kOpsrReferenceFile + ":moderate";
         k.regularizer = "kd13";
         RenderStats a, b, c;
         const Image ip = renderImage(scene, p, a);

@@ -17,8 +17,6 @@ using namespace lt::test;
 
 namespace {
 
-const std::string kReferenceFile = std::string(LT_SHARED_DIR) + "/data/opsr/opsr-reference-attenuation.json";
-
 struct Config {
     const char* label;
     void (*set)(RenderSettings&);
@@ -47,14 +45,14 @@ TEST_CASE("regularised images are bit-identical for 1 and 3 threads and depend o
         {"opsr", [](RenderSettings& s) { s.regularizer = "opsr"; }},
         {"jg19,opsr", [](RenderSettings& s) { s.regularizer = "jg19,opsr"; }},
     };
-    if (std::filesystem::exists(kReferenceFile)) {
+    if (std::filesystem::exists(kOpsrReferenceFile)) {
         configs.push_back({"opsr moderate consistent", [](RenderSettings& s) {
                                s.regularizer = "opsr";
-                               s.regOpsrTable = kReferenceFile + ":moderate";
+                               s.regOpsrTable = kOpsrReferenceFile + ":moderate";
                                s.regOpsrConsistent = true;
                            }});
     } else {
-        WARN("the OPSR table case is skipped: " << kReferenceFile << " is not there");
+        WARN("the OPSR table case is skipped: " << kOpsrReferenceFile << " is not there");
     }
     for (const char* integrator : {"pt", "bpt", "vcm"})
         for (const Config& c : configs) {

@@ -66,8 +66,8 @@ TEST_CASE("A regulariser's value that is not a number refuses its technique and 
         CHECK(kd.invalidValues() >= 1);
     }
     SECTION("JG19: the bound tau' = tau / sigma where the diffusion heuristic's spread sigma is NaN") {
-        // L S D E of a point light in glass (test_jg19_heuristics's hand computation): with tau under
-        // sqrt(q), BPT regularises the glass, x1, and the connection S-D (s = 2) contributes.
+        // L S D E of a point light in glass (test_jg19_heuristics's hand computation): with tau
+        // under sqrt(q), BPT regularises the glass, x1, and the connection S-D (s = 2) contributes.
         Scene scene(mixedScene(16));
         const double camBound = scene.camera().directionPdf(scene.camera().forward()).value;
         const double q = 0.5 / kPi * camBound * sqr(5.0 / (5.0 - double(4.9f)));
