@@ -11,8 +11,9 @@
 # renders K times as many, for a finer ratio on a busy machine: a render of 0.1 s is dominated by
 # its start and the threads' scheduling). Writes
 # OUT/rounds.csv (scene, integrator, configuration, round, seconds, ratio to that round's none)
-# and OUT/cost-time.md. About 10 minutes with 7 rounds. COST_CONFIGS and COST_SCENES choose other
-# configurations and scenes (scripts/cost-common.sh; set them for ROUNDS 0 too).
+# and OUT/cost-time.md. About 10 minutes with 7 rounds. COST_CONFIGS, COST_SCENES and
+# COST_INTEGRATORS choose other configurations, scenes and integrators (scripts/cost-common.sh; set
+# them for ROUNDS 0 too).
 # ROUNDS 0: no renders, only the table from an existing OUT/rounds.csv (e.g. the rounds of two runs
 # appended into one file: the tables' medians then cover both).
 set -euo pipefail

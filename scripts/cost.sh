@@ -10,8 +10,9 @@
 # OUT/cost.md (the ratios). Configurations: none; jg19 with --reg-tau 1e30 (the heuristics'
 # bookkeeping on every path, nothing regularised: images identical to none); jg19, opsr and kd13
 # with their defaults. 13 scenes x 3 integrators x 5 configurations x 2 renders at 48x48, 1 thread
-# each: about 6 minutes on 2 cores. COST_CONFIGS and COST_SCENES choose others, among them OPSR's
-# reference sets (opsr-low ... opsr-aggressive): scripts/cost-common.sh.
+# each: about 6 minutes on 2 cores. COST_CONFIGS, COST_SCENES and COST_INTEGRATORS choose others,
+# among the configurations OPSR's reference sets (opsr-low ... opsr-aggressive):
+# scripts/cost-common.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-out/cost}"
