@@ -40,6 +40,9 @@ enum BsdfFlags : uint32_t {
     kDelta = 1u << 4,
 };
 
+// The form of the maximum-value bound of a microfacet lobe (bsdf/roughness_bound.h).
+enum class BoundForm : uint8_t { Tight, Published };
+
 // Microfacet alphas below this are treated as a delta lobe (smooth surface).
 inline constexpr float kMinAlpha = 1e-4f;
 
@@ -63,12 +66,19 @@ struct Roughness {
 //             weight spread uniformly over the cone of half-angle eps around the ideal direction
 //             (bsdf/cone_mollifier.h); the densities stay 0 (the walks never sample it), and
 //             valueBound is 1 / Omega(eps). With tau too: JG19 with --reg-specular cone.
+//   bound     how tau becomes alpha_hat: the lobe's true supremum (Tight) or JG19's Eqs. 8-9
+//             (Published, to reproduce the paper); roughness_bound.h
+//   compensate  a smooth conductor or dielectric made rough keeps the albedo of its delta lobes
+//             (bsdf/energy_compensation.h); its alpha_hat then bounds the compensated value
 // A smooth (delta) conductor or dielectric whose resolved alpha reaches kMinAlpha becomes a rough
 // GGX/Smith lobe. Diffuse and rough lobes ignore the cone, diffuse lobes the whole request.
+// bound and compensate only qualify the other fields: they alone make no request.
 struct RegularizationRequest {
     Roughness minAlpha;  // {0, 0}: none
     float tau = kInf;    // +inf: none
     float cone = 0.f;    // 0: none
+    BoundForm bound = BoundForm::Tight;
+    bool compensate = true;
     bool empty() const {
         return !(minAlpha.alphaU > 0.f) && !(minAlpha.alphaV > 0.f) && !(tau < kInf) && !(cone > 0.f);
     }
@@ -240,28 +250,34 @@ public:
     // valueBound without a request, and with the smallest one that makes a smooth BSDF rough
     // (alphas raised to kMinAlpha; 0 where none can: index-matched glass), cached by each model's
     // constructor: JG19's walks read them at every vertex (integrators/transport/jg19.h (2), (4)).
-    float plainBound() const { return plainBound_; }
-    float smoothestBound() const { return smoothestBound_; }
+    // Each in the bound form f of the caller's requests.
+    float plainBound(BoundForm f = BoundForm::Tight) const { return plainBound_[int(f)]; }
+    float smoothestBound(BoundForm f = BoundForm::Tight) const { return smoothestBound_[int(f)]; }
     // The largest bound under which a request (a bound alone) changes the BSDF, 0 where none does
     // (JG19's diffusion heuristic, jg19.h (4)): plainBound for a glossy lobe (any bound below its
     // own makes it rougher), smoothestBound for a delta one, 0 for a lobe no request changes (a
     // diffuse one).
-    float changeableBound() const { return changeableBound_; }
+    float changeableBound(BoundForm f = BoundForm::Tight) const { return changeableBound_[int(f)]; }
 
 protected:
     // The last statement of each model's constructor (valueBound is then the model's own).
     void cacheBounds() {
-        plainBound_ = valueBound(kRadianceContext);
-        BsdfContext smoothest(TransportMode::Radiance);
-        smoothest.reg.minAlpha = {kMinAlpha, kMinAlpha};
-        const float c = valueBound(smoothest);
-        smoothestBound_ = std::isfinite(c) ? c : 0.f;
-        const uint32_t f = flags();
-        changeableBound_ = (f & kGlossy) ? plainBound_ : (f & kDelta) ? smoothestBound_ : 0.f;
+        for (BoundForm form : {BoundForm::Tight, BoundForm::Published}) {
+            const int i = int(form);
+            BsdfContext plain(TransportMode::Radiance);
+            plain.reg.bound = form;
+            plainBound_[i] = valueBound(plain);
+            BsdfContext smoothest = plain;
+            smoothest.reg.minAlpha = {kMinAlpha, kMinAlpha};
+            const float c = valueBound(smoothest);
+            smoothestBound_[i] = std::isfinite(c) ? c : 0.f;
+            const uint32_t f = flags();
+            changeableBound_[i] = (f & kGlossy) ? plainBound_[i] : (f & kDelta) ? smoothestBound_[i] : 0.f;
+        }
     }
     const Lambert* lambert_ = nullptr;
     float continuation_ = 1.f;  // set by each model's constructor
-    float plainBound_ = 0.f, smoothestBound_ = 0.f, changeableBound_ = 0.f;
+    float plainBound_[2] = {0.f, 0.f}, smoothestBound_[2] = {0.f, 0.f}, changeableBound_[2] = {0.f, 0.f};
 };
 
 // min(1, max(0, the largest channel of c)): the continuation probability of a lobe scaled by c.

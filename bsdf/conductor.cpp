@@ -2,6 +2,7 @@
 // wo.z <= 0 or wi.z <= 0. eta + i k is the complex IOR relative to the exterior.
 #include "bsdf/bsdf.h"
 #include "bsdf/cone_mollifier.h"
+#include "bsdf/energy_compensation.h"
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
@@ -14,21 +15,23 @@ class ConductorBxdf final : public Bxdf {
 public:
     ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
                   const Color& k, const Color& specR)
-        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {
+        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR),
+          comp_(1.f, false) {
         continuation_ = continuationOf(specR);  // the Fresnel factor is <= 1 on top
         cacheBounds();
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         if (!rough_ && ctx.reg.cone > 0.f) return evalCone(wo, wi, ctx.reg.cone);  // (whatever else is asked)
-        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
+        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
         if (a.delta) return BsdfEval{};
+        if (compensated(ctx.reg)) return evalCompensated(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
         return evalRough(lobe_.microfacet(a), wo, wi, ctx.valueOnly);
     }
 
     bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
         if (!(wo.z > 0.f)) return false;
-        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
+        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
         if (a.delta) {
             out.wi = Vec3(-wo.x, -wo.y, wo.z);
             out.weight = specR_ * fresnelConductor(wo.z, eta_, k_);
@@ -58,7 +61,14 @@ public:
         if (!(g1 > 0.f)) return false;
         out.wi = wi;
         // f cos / pdf = F D G2 / (4 cos_o) / (G1(wo) D / (4 cos_o)) = F G2 / G1(wo): no overflow.
-        out.weight = specR_ * fresnelConductor(wom, eta_, k_) * (mf.G2(wo, wi, g1, mf.G1(wi, m)) / g1);
+        const float ratio = mf.G2(wo, wi, g1, mf.G1(wi, m)) / g1;
+        if (compensated(ctx.reg)) {  // (energy_compensation.h: F and 1 / E at the light side)
+            const float muL = ctx.mode == TransportMode::Radiance ? wi.z : wo.z;
+            out.weight = specR_ * fresnelConductor(muL, eta_, k_) *
+                         (SmoothLobeCompensation::reflectionScale(muL, 0.5f * (a.u + a.v)) * ratio);
+        } else {
+            out.weight = specR_ * fresnelConductor(wom, eta_, k_) * ratio;
+        }
         out.pdfFwd = SolidAnglePdf(pdfFwd);
         out.pdfRev = SolidAnglePdf(r.reflectDensity(wi, r.gI));
         out.lobe = kReflection | kGlossy;
@@ -68,14 +78,16 @@ public:
 
     uint32_t flags() const override { return rough_ ? (kReflection | kGlossy) : (kReflection | kDelta); }
     bool deltaUnder(const BsdfContext& ctx) const override {
-        return !(!rough_ && ctx.reg.cone > 0.f) && lobe_.resolve(ctx.reg, false, 1.f).delta;
+        return !(!rough_ && ctx.reg.cone > 0.f) && resolveFor(ctx.reg).delta;
     }
     float valueBound(const BsdfContext& ctx) const override {
         if (!rough_ && ctx.reg.cone > 0.f) return 1.f / coneSolidAngle(ctx.reg.cone);  // the cone's 1 / Omega
-        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, false, 1.f);
+        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
         if (a.delta) return kInf;
         // (Microfacet clamps each alpha to kMinAlpha; the smaller axis bounds an anisotropic lobe.)
-        return maxValueBound(lobe_.type, lobe_.masking, std::max(std::min(a.u, a.v), kMinAlpha), false, 1.f);
+        const float alpha = std::max(std::min(a.u, a.v), kMinAlpha);
+        if (compensated(ctx.reg)) return comp_.valueBound(false, alpha, ctx.reg.bound);
+        return maxValueBound(lobe_.type, lobe_.masking, alpha, false, 1.f, ctx.reg.bound);
     }
     // (one-sided: a pair below the surface is 0 under every request)
     PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
@@ -98,6 +110,29 @@ public:
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }
 
 private:
+    // Whether a request makes this smooth conductor a compensated rough lobe (energy_compensation.h).
+    bool compensated(const RegularizationRequest& r) const { return !rough_ && r.compensate; }
+    // The request resolved; a compensated lobe's bound is its own (alphaFor).
+    MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r) const {
+        return compensated(r) ? comp_.resolve(lobe_, r, false) : lobe_.resolve(r, false, 1.f);
+    }
+    // specR F(mu_l) f1 / E_R(mu_l): the mirror's weight F spread over the rough lobe, l the light
+    // side (wi for Radiance, wo for Importance).
+    BsdfEval evalCompensated(const Microfacet& mf, const Vec3& wo, const Vec3& wi, TransportMode mode,
+                             bool valueOnly) const {
+        BsdfEval e;
+        if (!(wo.z > 0.f) || !(wi.z > 0.f)) return e;
+        const MicrofacetReflectionTerms r = microfacetReflectionTerms(mf, wo, wi);
+        if (!(r.value > 0.f)) return e;
+        const float muL = mode == TransportMode::Radiance ? wi.z : wo.z;
+        e.f = specR_ * fresnelConductor(muL, eta_, k_) *
+              (SmoothLobeCompensation::reflectionScale(muL, 0.5f * (mf.alphaU() + mf.alphaV())) * r.value);
+        if (valueOnly) return e;
+        e.pdfFwd = SolidAnglePdf(r.reflectDensity(wo, r.gO));
+        e.pdfRev = SolidAnglePdf(r.reflectDensity(wi, r.gI));
+        return e;
+    }
+
     // KD13's cone around the mirror direction (bsdf/cone_mollifier.h): the weight of the delta
     // sample, specR F(cos theta_o), spread over the cone. The densities stay 0 (nothing samples it).
     BsdfEval evalCone(const Vec3& wo, const Vec3& wi, float eps) const {
@@ -125,6 +160,7 @@ private:
     bool rough_;
     MicrofacetLobe lobe_;
     Color eta_, k_, specR_;
+    SmoothLobeCompensation comp_;  // (used for a smooth conductor only)
 };
 
 }  // namespace

@@ -9,6 +9,7 @@
 // refraction, rough or not.
 #include "bsdf/bsdf.h"
 #include "bsdf/cone_mollifier.h"
+#include "bsdf/energy_compensation.h"
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
@@ -22,7 +23,7 @@ public:
     DielectricBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, float eta,
                    const Color& specR, const Color& specT)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), specR_(specR),
-          specT_(specT) {
+          specT_(specT), comp_(eta, true) {
         continuation_ = std::max(continuationOf(specR), continuationOf(specT));
         cacheBounds();
     }
@@ -33,8 +34,9 @@ public:
             return evalCone(wo, wi, ctx.reg.cone, ctx.mode);
         if (eta_ == 1.f) return BsdfEval{};
         // The request resolved for the lobe of this pair (reflection or transmission).
-        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, !(wo.z * wi.z > 0.f), eta_);
+        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg, !(wo.z * wi.z > 0.f));
         if (a.delta) return BsdfEval{};
+        if (compensated(ctx.reg)) return evalCompensated(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
         return evalRough(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
     }
 
@@ -53,11 +55,10 @@ public:
             return true;
         }
         // The lobe is chosen only after the microfacet normal, so one alpha serves both lobes here:
-        // a request is resolved with the transmission bound, the larger alpha_hat of the two (for
-        // every eta, rho_bar_t / rho_bar_r = 4 max(n_i, n_t)^2 / (n_i - n_t)^2 > 4), and the
+        // a request is resolved with the larger alpha_hat of the two lobes' bounds, and the
         // returned pdfs and weight are those of that alpha. (eval resolves per pair; the walks
         // never sample a regularised BSDF, JG19 Sec. 3.)
-        const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, true, eta_);
+        const MicrofacetLobe::Resolved a = resolveBoth(ctx.reg);
         if (a.delta) {
             float cosT;
             const float F = fresnelDielectric(o.z, etaRel, &cosT);
@@ -83,7 +84,10 @@ public:
         const Vec3 m = mf.sampleVisible(o, u, uSel);
         const float om = glm::dot(o, m);
         if (!(om > 0.f)) return false;
-        const float F = fresnelDielectric(om, etaRel);
+        // (a compensated lobe chooses by the macro Fresnel of wo, the weight its value spreads: the
+        // sample weight is then G2 / G1 / E, with no 1 / F(facet) tail)
+        const bool macro = compensated(ctx.reg);
+        const float F = macro ? fresnelDielectric(o.z, etaRel) : fresnelDielectric(om, etaRel);
         Vec3 i;
         bool reflect = uSel < F;
         if (reflect) {
@@ -98,7 +102,7 @@ public:
             return true;
         }
         // The densities only (the value is not needed: the weight below is its closed form).
-        const float pdfFwd = pdfImpl(mf, wo, wi);
+        const float pdfFwd = pdfImpl(mf, wo, wi, macro);
         if (!(pdfFwd > 0.f) || !std::isfinite(pdfFwd)) return false;
         const float g1 = mf.G1(o, m);
         if (!(g1 > 0.f)) return false;
@@ -106,7 +110,13 @@ public:
         const float ratio = mf.G2(o, i, m) / g1;
         out.wi = wi;
         out.pdfFwd = SolidAnglePdf(pdfFwd);
-        out.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo));
+        out.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo, macro));
+        if (compensated(ctx.reg)) {  // (the compensated value over the same density)
+            out.weight = evalCompensated(mf, wo, wi, mode, true).f * (std::abs(wi.z) / pdfFwd);
+            out.lobe = reflect ? (kReflection | kGlossy) : (kTransmission | kGlossy);
+            out.eta = reflect ? 1.f : etaRel;
+            return true;
+        }
         if (reflect) {
             out.weight = specR_ * ratio;
             out.lobe = kReflection | kGlossy;
@@ -146,10 +156,10 @@ public:
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughdielectric" : "dielectric"; }
-    // The transmission bound gives the larger alpha_hat (see sample): rough there first.
+    // Rough as soon as either lobe's resolved alpha is (sample's resolveBoth).
     bool deltaUnder(const BsdfContext& ctx) const override {
         if (ctx.reg.cone > 0.f && (eta_ == 1.f || !rough_)) return false;  // the cone (evalCone)
-        return eta_ == 1.f || lobe_.resolve(ctx.reg, true, eta_).delta;
+        return eta_ == 1.f || resolveBoth(ctx.reg).delta;
     }
     // The larger of the reflection and transmission bounds, each with the alphas eval resolves
     // for its lobe. +inf when both are still deltas; a reflection lobe still a delta beside a
@@ -159,15 +169,53 @@ public:
         if (eta_ == 1.f) return kInf;
         float bound = -1.f;
         for (bool transmission : {false, true}) {
-            const MicrofacetLobe::Resolved a = lobe_.resolve(ctx.reg, transmission, eta_);
+            const MicrofacetLobe::Resolved a = resolveFor(ctx.reg, transmission);
             if (a.delta) continue;
             const float alpha = std::max(std::min(a.u, a.v), kMinAlpha);
-            bound = std::max(bound, maxValueBound(lobe_.type, lobe_.masking, alpha, transmission, eta_));
+            bound = std::max(bound, compensated(ctx.reg)
+                                        ? comp_.valueBound(transmission, alpha, ctx.reg.bound)
+                                        : maxValueBound(lobe_.type, lobe_.masking, alpha, transmission, eta_, ctx.reg.bound));
         }
         return bound < 0.f ? kInf : bound;
     }
 
 private:
+    // The request resolved for both lobes, per axis the larger alpha (which lobe's bound gives it
+    // depends on eta, alpha and the bound's form).
+    MicrofacetLobe::Resolved resolveBoth(const RegularizationRequest& r) const {
+        const MicrofacetLobe::Resolved t = resolveFor(r, true), q = resolveFor(r, false);
+        return {std::max(t.u, q.u), std::max(t.v, q.v), t.delta && q.delta};
+    }
+    // Whether a request makes this smooth interface a compensated rough lobe (energy_compensation.h).
+    bool compensated(const RegularizationRequest& r) const { return !rough_ && r.compensate && eta_ != 1.f; }
+    // The request resolved for one lobe; a compensated lobe's bound is its own (alphaFor).
+    MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r, bool transmission) const {
+        return compensated(r) ? comp_.resolve(lobe_, r, transmission) : lobe_.resolve(r, transmission, eta_);
+    }
+
+    // The compensated rough lobe of a smooth interface (energy_compensation.h): each lobe's
+    // Fresnel-free value times W / E at the light side l (wi for Radiance, wo for Importance),
+    // W = F(mu_l) (reflection) or 1 - F(mu_l) (refraction) seen from l's side.
+    BsdfEval evalCompensated(const Microfacet& mf, const Vec3& wo, const Vec3& wi, TransportMode mode,
+                             bool valueOnly) const {
+        BsdfEval e;
+        const Vec3& l = mode == TransportMode::Radiance ? wi : wo;
+        const float muL = std::abs(l.z), etaL = l.z > 0.f ? eta_ : 1.f / eta_;
+        const float F = fresnelDielectric(muL, etaL);
+        const float alpha = 0.5f * (mf.alphaU() + mf.alphaV());
+        if (wo.z * wi.z > 0.f) {
+            e.f = specR_ * (F * SmoothLobeCompensation::reflectionScale(muL, alpha) * microfacetReflection(mf, wo, wi));
+        } else {
+            if (!refractionGeometry(wo, wi).valid) return e;
+            e.f = specT_ * ((1.f - F) * SmoothLobeCompensation::transmissionScale(muL, alpha, etaL) *
+                            microfacetTransmission(mf, wo, wi, eta_, mode));
+        }
+        if (valueOnly) return e;
+        e.pdfFwd = SolidAnglePdf(pdfImpl(mf, wo, wi, true));
+        e.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo, true));
+        return e;
+    }
+
     // KD13's cone (bsdf/cone_mollifier.h) around the ideal reflected and refracted directions of
     // wo, each with the weight of its delta sample: specR F, and specT (1 - F) (times 1/eta^2 for
     // radiance), F of the macro normal at wo; an index-matched interface has the straight-through
@@ -244,8 +292,8 @@ private:
     }
 
     // Density (solid angle, including the Fresnel lobe choice) with which sample() produces wi
-    // from wo.
-    float pdfImpl(const Microfacet& mf, const Vec3& wo, const Vec3& wi) const {
+    // from wo; macro: the lobe chosen by the Fresnel of wo at the macro normal (a compensated lobe).
+    float pdfImpl(const Microfacet& mf, const Vec3& wo, const Vec3& wi, bool macro = false) const {
         if (wo.z == 0.f || wi.z == 0.f) return 0.f;
         const float s = wo.z > 0.f ? 1.f : -1.f;
         const Vec3 o = wo * s;  // visible normals are sampled from wo flipped to the upper side
@@ -253,7 +301,8 @@ private:
             const Vec3 h = glm::normalize(wo + wi) * s;  // facing +z in the flipped frame
             const float oh = glm::dot(o, h);
             if (!(oh > 0.f)) return 0.f;
-            return mf.pdfVisible(o, h) / (4.f * oh) * reflectionFresnel(wo, wi, glm::normalize(wo + wi));
+            const float F = macro ? macroFresnel(wo) : reflectionFresnel(wo, wi, glm::normalize(wo + wi));
+            return mf.pdfVisible(o, h) / (4.f * oh) * F;
         }
         const RefractionGeometry g = refractionGeometry(wo, wi);
         if (!g.valid) return 0.f;
@@ -266,13 +315,19 @@ private:
         const Vec3& dn = wo.z > 0.f ? wi : wo;
         const float denom = glm::dot(up, g.h) + eta_ * glm::dot(dn, g.h);
         if (denom == 0.f) return 0.f;
-        return mf.pdfVisible(o, g.h) * nwi * nwi * std::abs(glm::dot(wi, g.h)) / (denom * denom) * (1.f - g.F);
+        return mf.pdfVisible(o, g.h) * nwi * nwi * std::abs(glm::dot(wi, g.h)) / (denom * denom) *
+               (1.f - (macro ? macroFresnel(wo) : g.F));
+    }
+    // The Fresnel reflectance of w at the macro normal, from w's side.
+    float macroFresnel(const Vec3& w) const {
+        return fresnelDielectric(std::abs(w.z), w.z > 0.f ? eta_ : 1.f / eta_);
     }
 
     bool rough_;
     MicrofacetLobe lobe_;
     float eta_;
     Color specR_, specT_;
+    SmoothLobeCompensation comp_;  // (used for a smooth interface only)
 };
 
 }  // namespace

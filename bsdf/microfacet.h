@@ -89,7 +89,7 @@ struct MicrofacetLobe {
     Resolved resolve(const RegularizationRequest& r, bool transmission, float eta) const {
         float u = std::max(alphaU, r.minAlpha.alphaU), v = std::max(alphaV, r.minAlpha.alphaV);
         if (r.tau < kInf) {
-            const float a = alphaForBound(type, masking, r.tau, transmission, eta);
+            const float a = alphaForBound(type, masking, r.tau, transmission, eta, r.bound);
             u = std::max(u, a);
             v = std::max(v, a);
         }

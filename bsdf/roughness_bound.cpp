@@ -40,19 +40,41 @@ double bound(MicrofacetType type, MaskingModel masking, double a, bool transmiss
     return lobeFactor(transmission, eta) * dMax(type, a) * gBar(type, masking, a);
 }
 
+// The tight form differs from the published one only for GGX/Smith refraction with alpha <= 1
+// (header): c / pi max(1 / alpha^2, 4), with the upward margin kTightMargin.
+constexpr double kTightMargin = 1.001;
+bool tightDiffers(MicrofacetType type, MaskingModel masking, bool transmission) {
+    return transmission && masking == MaskingModel::Smith && type == MicrofacetType::GGX;
+}
+double boundTight(MicrofacetType type, MaskingModel masking, double a, bool transmission, double eta) {
+    if (!tightDiffers(type, masking, transmission) || a > 1.0) return bound(type, masking, a, transmission, eta);
+    // (never above the published bound, which is a bound too and meets it at alpha = 1)
+    return std::min(kTightMargin * lobeFactor(true, eta) / kPiD * std::max(1.0 / (a * a), 4.0),
+                    bound(type, masking, a, transmission, eta));
+}
+
 }  // namespace
 
-float maxValueBound(MicrofacetType type, MaskingModel masking, float alpha, bool transmission, float eta) {
+float maxValueBound(MicrofacetType type, MaskingModel masking, float alpha, bool transmission, float eta,
+                    BoundForm form) {
     if (!(alpha > 0.f) || (transmission && eta == 1.f)) return kInf;
+    if (form == BoundForm::Tight) return float(boundTight(type, masking, alpha, transmission, eta));
     return float(bound(type, masking, alpha, transmission, eta));
 }
 
-float alphaForBound(MicrofacetType type, MaskingModel masking, float tau, bool transmission, float eta) {
+float alphaForBound(MicrofacetType type, MaskingModel masking, float tau, bool transmission, float eta,
+                    BoundForm form) {
     if (transmission && eta == 1.f) return 1.f;
     if (!(tau > 0.f)) return 1.f;
     if (std::isinf(tau)) return 0.f;
     const double c = lobeFactor(transmission, eta);
     const double t = tau;
+    if (form == BoundForm::Tight && tightDiffers(type, masking, transmission)) {
+        // c / pi max(1 / alpha^2, 4) (times the margin) <= tau: the first branch's inverse, where
+        // it is at most 1/2; beyond, the bound is constant (the grazing pairs) and above tau.
+        const double a = std::sqrt(kTightMargin * c / (kPiD * t));
+        return a <= 0.5 ? float(a) : 1.f;
+    }
     // Closed form of the paper's branch, D_max = 1/(pi alpha^2):
     //   Smith: rho = c K / (pi alpha^4), K = 4 (GGX), 4 pi (Beckmann); V-cavity: c / (pi alpha^2).
     double a;

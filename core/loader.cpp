@@ -151,6 +151,13 @@ private:
         if (!isIn(kRegSpecularNames, I.regSpecular))
             p.failAt("reg_specular", fmt::format("unknown smooth-lobe regularisation '{}' (supported: {})", I.regSpecular,
                                                  joinList(kRegSpecularNames)));
+        I.regBound = xml::lower(p.getString("reg_bound", "tight"));
+        if (!isIn(kRegBoundNames, I.regBound))
+            p.failAt("reg_bound", fmt::format("unknown bound '{}' (supported: {})", I.regBound, joinList(kRegBoundNames)));
+        I.regEnergy = xml::lower(p.getString("reg_energy", "compensate"));
+        if (!isIn(kRegEnergyNames, I.regEnergy))
+            p.failAt("reg_energy", fmt::format("unknown energy handling '{}' (supported: {})", I.regEnergy,
+                                               joinList(kRegEnergyNames)));
         if (p.has("reg_r0")) {
             I.regR0 = p.getFloat("reg_r0", -1.f);
             if (!(I.regR0 > 0.0) || !std::isfinite(I.regR0))

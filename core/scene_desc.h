@@ -62,6 +62,10 @@ inline const std::vector<std::string> kRegularizerNames{"none", "jg19", "kd13", 
 inline const std::vector<std::string> kRegScheduleNames{"consistent", "fixed"};
 inline const std::vector<std::string> kRegMisNames{"regularised", "sampling"};
 inline const std::vector<std::string> kRegSpecularNames{"ggx", "cone"};
+// JG19's bound on a lobe's value: the true supremum or the paper's Eqs. 8-9 (bsdf/roughness_bound.h);
+// a smooth lobe made rough with or without its albedo kept (bsdf/energy_compensation.h).
+inline const std::vector<std::string> kRegBoundNames{"tight", "published"};
+inline const std::vector<std::string> kRegEnergyNames{"compensate", "none"};
 
 // The largest threshold of the regularisers' tail roulette (reg_tail_rr, --reg-tail-rr; regularizer.h
 // (9)) that the loader, render's command line, the analysis configurations and makeIntegrator take.
@@ -93,6 +97,8 @@ struct IntegratorDesc {
     bool regQuality = true;              // JG19's sampler quality heuristic (reg_quality)
     std::optional<bool> regDiffusion;    // JG19's diffusion heuristic (reg_diffusion; unset: as regQuality)
     std::string regSpecular = "ggx";     // JG19's smooth lobes: ggx | cone (reg_specular)
+    std::string regBound = "tight";      // JG19's bound: tight | published (reg_bound)
+    std::string regEnergy = "compensate";  // smooth lobes made rough: compensate | none (reg_energy)
     double regR0 = -1.0;                 // KD13's r_0 (reg_r0; <= 0: the default)
     double regLambda = -1.0;             // KD13's lambda, OPSR's consistent offset's (reg_lambda; < 0: the default)
     double regOpsrGamma = -1.0;          // OPSR's constant gamma (reg_opsr_gamma; < 0: 0.01 unless a table)

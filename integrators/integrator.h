@@ -59,6 +59,10 @@ struct RenderSettings {
     // JG19's smooth lobes: "ggx" (rough GGX with alpha_hat, JG19 Sec. 3.2) or "cone" (KD13's cone
     // with rho_cone = tau', JG19 Fig. 4).
     std::string regSpecular = "ggx";
+    // JG19's bound (also with jg19,opsr): "tight" (the lobe's supremum) or "published" (Eqs. 8-9);
+    // JG19's and OPSR's smooth lobes made rough: "compensate" (albedo kept) or "none".
+    std::string regBound = "tight";
+    std::string regEnergy = "compensate";
     // KD13 (integrators/transport/kd13.h): r_0 (<= 0: 1% of the geometry's bounding radius) and
     // lambda of r_N = r_0 N^-lambda (< 0: 1/6 for one mollified vertex, 1/12 for two).
     double regR0 = -1.0;

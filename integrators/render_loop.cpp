@@ -58,6 +58,19 @@ std::unique_ptr<Integrator> makeWith(const RenderSettings& s, Reg reg) {
         return makeBidirectional(s, reg);
     throw std::invalid_argument("unknown integrator '" + s.integrator + "' (supported: " + supportedIntegrators() + ")");
 }
+
+BoundForm boundFormOf(const RenderSettings& s) {
+    if (s.regBound == "tight") return BoundForm::Tight;
+    if (s.regBound == "published") return BoundForm::Published;
+    throw std::invalid_argument(
+        fmt::format("unknown regularisation bound '{}' (supported: {})", s.regBound, fmt::join(kRegBoundNames, ", ")));
+}
+bool compensateOf(const RenderSettings& s) {
+    if (s.regEnergy == "compensate") return true;
+    if (s.regEnergy == "none") return false;
+    throw std::invalid_argument(
+        fmt::format("unknown regularisation energy '{}' (supported: {})", s.regEnergy, fmt::join(kRegEnergyNames, ", ")));
+}
 }  // namespace
 
 std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
@@ -79,6 +92,8 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
         else throw std::invalid_argument(fmt::format("unknown smooth-lobe regularisation '{}' (supported: {})",
                                                      s.regSpecular, fmt::join(kRegSpecularNames, ", ")));
         j.diffusion = regDiffusionOf(s);
+        j.bound = boundFormOf(s);
+        j.compensate = compensateOf(s);
         if (j.diffusion && !j.quality)
             throw std::invalid_argument("the JG19 diffusion heuristic (reg_diffusion, --reg-diffusion on) needs the quality "
                                         "heuristic (reg_quality, --reg-quality on): it scales the bound at the vertices "
@@ -119,6 +134,8 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
                                         "applies to --integrator pt only");
         if (s.regOpsrAlwaysSample) o.walkSampleBound = 0.f;
         o.bidirectional = s.integrator != "pt";
+        o.bound = boundFormOf(s);
+        o.compensate = compensateOf(s);
         o.lambda = s.regLambda;
         if (s.regLambda >= 0.0 && !s.regOpsrConsistent)
             throw std::invalid_argument("--reg-lambda with --reg opsr sets the consistent offset's exponent: it needs "

@@ -121,6 +121,11 @@ TEST_CASE("bad command lines exit with 1 and name the problem, numeric ranges in
                           Case{"--reg jg19,opsr --integrator ppm", "ppm makes no connections"},
                           Case{"--reg jg19,opsr --reg-tau 0.1", "reg-tau"},
                           Case{"--reg opsr,jg19", "opsr,jg19"},
+                          Case{"--reg jg19 --reg-bound loose", "reg-bound"},
+                          Case{"--reg jg19 --reg-energy some", "reg-energy"},
+                          Case{"--reg kd13 --reg-bound published", "applies to --reg jg19 only"},
+                          Case{"--reg opsr --reg-bound published", "applies to --reg jg19 only"},
+                          Case{"--reg kd13 --reg-energy none", "--reg-energy applies to --reg jg19, opsr and jg19,opsr"},
                           // Numeric options state their range in words (CLI11's own checks printed the
                           // bounds as numbers, DBL_MAX in full for --spp -3).
                           Case{"--spp 0", "--spp: must be greater than 0 (got 0)"},

@@ -15,17 +15,15 @@
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
+#include "microfacet_models.h"
 #include "core/rng.h"
 #include "core/sampling.h"
 
 using namespace lt;
+using namespace lt::test;
 
 namespace {
 
-const MicrofacetType kDists[] = {MicrofacetType::GGX, MicrofacetType::Beckmann};
-const MaskingModel kMasks[] = {MaskingModel::Smith, MaskingModel::VCavity};
-const char* distName(MicrofacetType t) { return t == MicrofacetType::GGX ? "GGX" : "Beckmann"; }
-const char* maskName(MaskingModel m) { return m == MaskingModel::Smith ? "Smith" : "VCavity"; }
 
 // A direction whose cos(theta) is log-uniform in [1e-7, 1] (to probe grazing angles densely)
 // or uniform, with a random azimuth, on the side `side`.

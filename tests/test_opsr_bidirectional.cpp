@@ -548,6 +548,8 @@ TEST_CASE("OPSR with JG19's bound renders the point seen through glass that OPSR
         <string name="regularizer" value="jg19,opsr"/>
         <float name="reg_tau" value="50"/>
         <string name="reg_schedule" value="fixed"/>
+        <string name="reg_bound" value="published"/>
+        <string name="reg_energy" value="none"/>
     </integrator>
     <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
     <emitter type="point"><point name="position" value="0, 0, -2"/><rgb name="intensity" value="1, 1, 1"/></emitter>
@@ -557,6 +559,16 @@ TEST_CASE("OPSR with JG19's bound renders the point seen through glass that OPSR
     CHECK(desc.integrator.regularizer == "jg19,opsr");
     CHECK(desc.integrator.regTau == Approx(50.0));
     CHECK(desc.integrator.regSchedule == "fixed");
+    CHECK(desc.integrator.regBound == "published");
+    CHECK(desc.integrator.regEnergy == "none");
+    // A value the parameters do not take: an error naming the parameter.
+    for (const std::string& bad : {std::string(R"(<string name="reg_bound" value="loose"/>)"),
+                                   std::string(R"(<string name="reg_energy" value="some"/>)")}) {
+        std::ofstream(dir / "bad.xml") << "<scene version=\"3.0.0\"><integrator type=\"path\">" << bad
+                                       << "</integrator></scene>\n";
+        const std::string name = bad.find("reg_bound") != std::string::npos ? "reg_bound" : "reg_energy";
+        CHECK_THROWS_WITH(loadScene((dir / "bad.xml").string(), {}), Catch::Contains(name) && Catch::Contains("bad.xml"));
+    }
     std::filesystem::remove_all(dir);
 }
 

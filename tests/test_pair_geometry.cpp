@@ -214,8 +214,9 @@ TEST_CASE("requestRatioBound bounds requestRatio over every pair and is approach
     RegularizationRequest tau;
     tau.tau = 30.f;
     const BxdfPtr glass = makeRoughDielectric(MicrofacetType::GGX, 0.01f, 0.01f, 1.5f);
-    const float aR = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, 30.f, false, 1.5f);
-    const float aT = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, 30.f, true, 1.5f);
+    // (the request's bound form: tight by default)
+    const float aR = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, 30.f, false, 1.5f, BoundForm::Tight);
+    const float aT = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, 30.f, true, 1.5f, BoundForm::Tight);
     const float b = std::max(aR, aT) / 0.01f;
     CHECK(glass->requestRatioBound(tau) == Approx(b * b).epsilon(1e-5));
 }

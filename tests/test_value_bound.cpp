@@ -40,10 +40,13 @@
 #include "bsdf/bsdf.h"
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
+#include "bsdf/energy_compensation.h"
 #include "bsdf/roughness_bound.h"
+#include "microfacet_models.h"
 #include "core/rng.h"
 
 using namespace lt;
+using namespace lt::test;
 
 namespace {
 
@@ -53,7 +56,6 @@ RegularizationRequest tauRequest(float tau) {
     return r;
 }
 
-const char* distName(MicrofacetType t) { return t == MicrofacetType::GGX ? "GGX" : "Beckmann"; }
 
 // A direction whose cos(theta) is log-uniform in [1e-7, 1] (to probe grazing angles densely)
 // or uniform, with a random azimuth, on the side `side`.
@@ -193,16 +195,26 @@ TEST_CASE("valueBound: smooth conductor and dielectric are +inf until a request 
             const BsdfContext cHuge(mode, tauRequest(1e30f));
             CHECK(std::isinf(b->valueBound(cHuge)));
             CHECK(b->deltaUnder(cHuge));
-            // minAlpha request: the GGX/Smith lobe with that alpha (the smaller axis bounds it).
+            // minAlpha request: the GGX/Smith lobe with that alpha (the smaller axis bounds it), in the
+            // request's (tight) form; compensated, the compensated lobe's bound (energy_compensation.h).
             RegularizationRequest rm;
             rm.minAlpha = {0.2f, 0.35f};
-            const float expectedMin = std::max(maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, 0.2f, false, 1.5f),
-                                               b == diel ? maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, 0.2f, true, 1.5f) : 0.f);
+            rm.compensate = false;
+            const BoundForm tight = BoundForm::Tight;
+            const float expectedMin =
+                std::max(maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, 0.2f, false, 1.5f, tight),
+                         b == diel ? maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, 0.2f, true, 1.5f, tight) : 0.f);
             CHECK(b->valueBound(BsdfContext(mode, rm)) == expectedMin);
+            rm.compensate = true;
+            const SmoothLobeCompensation comp(b == diel ? 1.5f : 1.f, b == diel);
+            const float expectedCompensated =
+                std::max(comp.valueBound(false, 0.2f, tight), b == diel ? comp.valueBound(true, 0.2f, tight) : 0.f);
+            CHECK(b->valueBound(BsdfContext(mode, rm)) == expectedCompensated);
         }
 
     // The narrow range of tau where the dielectric's transmission is rough but its reflection is
-    // still a delta (rho_bar_t > rho_bar_r for the same alpha): the bound is the transmission's.
+    // still a delta (published bounds: rho_bar_t > rho_bar_r for the same alpha): the bound is the
+    // transmission's. (Tight bounds: the other way round, below.)
     {
         const float tau = 1e16f;  // rho_bar_r(kMinAlpha) = 3.2e15 < tau <= rho_bar_t(kMinAlpha) = 1.1e17
         const float ahR = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, tau, false, 1.5f);
@@ -210,7 +222,9 @@ TEST_CASE("valueBound: smooth conductor and dielectric are +inf until a request 
         INFO("alpha_hat reflection=" << ahR << " transmission=" << ahT);
         REQUIRE(ahR < kMinAlpha);
         REQUIRE(ahT >= kMinAlpha);
-        const BsdfContext c(TransportMode::Radiance, tauRequest(tau));
+        BsdfContext c(TransportMode::Radiance, tauRequest(tau));
+        c.reg.bound = BoundForm::Published;
+        c.reg.compensate = false;
         const float b = diel->valueBound(c);
         CHECK_FALSE(diel->deltaUnder(c));
         CHECK(std::isfinite(b));
@@ -219,6 +233,22 @@ TEST_CASE("valueBound: smooth conductor and dielectric are +inf until a request 
         // The conductor (reflection only) is still a delta there.
         CHECK(std::isinf(cond->valueBound(c)));
         CHECK(cond->deltaUnder(c));
+    }
+    {
+        const float tau = 1e12f;  // tight: rho_bar_t(kMinAlpha) = 2.9e8 < tau <= rho_bar_r(kMinAlpha) = 3.2e15
+        const BoundForm tight = BoundForm::Tight;
+        const float ahR = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, tau, false, 1.5f, tight);
+        const float ahT = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, tau, true, 1.5f, tight);
+        INFO("tight: alpha_hat reflection=" << ahR << " transmission=" << ahT);
+        REQUIRE(ahT < kMinAlpha);
+        REQUIRE(ahR >= kMinAlpha);
+        BsdfContext c(TransportMode::Radiance, tauRequest(tau));
+        c.reg.compensate = false;
+        const float b = diel->valueBound(c);
+        CHECK_FALSE(diel->deltaUnder(c));
+        CHECK(b <= tau * (1.f + 1e-4f));
+        CHECK(b == maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, ahR, false, 1.5f, tight));
+        CHECK_FALSE(cond->deltaUnder(c));  // (the conductor is rough there too)
     }
 
     // Index matched: a straight-through delta for every request, smooth or rough.

@@ -157,6 +157,10 @@ RunConfig parseConfig(const std::string& spec) {
             c.regDiffusion = oneOf(spec, opt, val, {"on", "off"}) == "on";
         } else if (opt == "--reg-specular") {
             c.regSpecular = oneOf(spec, opt, val, kRegSpecularNames);
+        } else if (opt == "--reg-bound") {
+            c.regBound = oneOf(spec, opt, val, kRegBoundNames);
+        } else if (opt == "--reg-energy") {
+            c.regEnergy = oneOf(spec, opt, val, kRegEnergyNames);
         } else if (opt == "--reg-r0") {
             c.regR0 = toDouble(opt, val);
             if (!(*c.regR0 > 0.0) || !std::isfinite(*c.regR0))
@@ -259,6 +263,8 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     s.regQuality = c.regQuality.value_or(desc.integrator.regQuality);
     s.regDiffusion = c.regDiffusion ? c.regDiffusion : desc.integrator.regDiffusion;
     s.regSpecular = c.regSpecular.value_or(desc.integrator.regSpecular);
+    s.regBound = c.regBound.value_or(desc.integrator.regBound);
+    s.regEnergy = c.regEnergy.value_or(desc.integrator.regEnergy);
     s.regR0 = c.regR0.value_or(desc.integrator.regR0);
     s.regLambda = c.regLambda.value_or(desc.integrator.regLambda);
     s.regOpsrGamma = c.regOpsrGamma.value_or(desc.integrator.regOpsrGamma);
@@ -269,7 +275,7 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
         throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
                                                     "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --reg, --reg-tau, "
-                                                    "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda, "
+                                                    "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-specular, --reg-bound, --reg-energy, --reg-r0, --reg-lambda, "
                                                     "--reg-opsr-gamma, --reg-opsr-table, --reg-opsr-consistent, --reg-opsr-always-sample, --reg-tail-rr, "
                                                     "--label)",
                                                     c.spec, c.extra.begin()->first));

@@ -22,7 +22,8 @@ namespace lt::analysis {
 // Options (as in `render`): --pt-strategy mis|nee|bsdf, --max-depth D, --rr-depth D, --hide-emitters,
 // --radius R, --radius-alpha A (or --alpha; initial radius and radius reduction of VCM/PPM),
 // --reg none|jg19|kd13|opsr, --reg-tau T, --reg-schedule consistent|fixed, --reg-mis regularised|sampling,
-// --reg-quality on|off, --reg-diffusion on|off, --reg-specular ggx|cone, --reg-r0 R, --reg-lambda L,
+// --reg-quality on|off, --reg-diffusion on|off, --reg-specular ggx|cone, --reg-bound tight|published,
+// --reg-energy compensate|none, --reg-r0 R, --reg-lambda L,
 // --reg-opsr-gamma G, --reg-opsr-table FILE[:SET], --reg-opsr-consistent (path-space regularisation, as render), --label NAME (the name in legends, tables and the CSV; default: the whole string). Any other
 // `--name value` is an error naming it. Mitsuba integrator
 // names (path, bdpt, ptracer) are accepted for pt, bpt, lt.
@@ -37,7 +38,7 @@ struct RunConfig {
     // Regularisation, as render's --reg, --reg-tau, --reg-schedule, --reg-mis, --reg-quality,
     // --reg-diffusion, --reg-specular, --reg-r0, --reg-lambda, --reg-opsr-gamma, --reg-opsr-table,
     // --reg-opsr-consistent, --reg-opsr-always-sample, --reg-tail-rr.
-    std::optional<std::string> regularizer, regSchedule, regMis, regSpecular;
+    std::optional<std::string> regularizer, regSchedule, regMis, regSpecular, regBound, regEnergy;
     std::optional<double> regTau, regR0, regLambda, regOpsrGamma, regTailRr;
     std::optional<std::string> regOpsrTable;
     std::optional<bool> regOpsrConsistent, regOpsrAlwaysSample;

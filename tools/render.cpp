@@ -11,6 +11,7 @@
 #include <map>
 #include <sstream>
 #include <nlohmann/json.hpp>
+#include "bsdf/energy_compensation.h"
 #include "bsdf/roughness_bound.h"
 #include "core/image.h"
 #include "core/loader.h"
@@ -68,7 +69,9 @@ nlohmann::json regularizerSettings(const RenderSettings& s, bool asUsed) {
     if (jg19 || both) {
         j["reg_tau0"] = s.regTau > 0.0 ? s.regTau : regTauDefault(s.integrator);
         j["reg_schedule"] = s.regSchedule;
+        j["reg_bound"] = s.regBound;
     }
+    if (jg19 || opsr) j["reg_energy"] = s.regEnergy;
     if (jg19) {
         j["reg_mis"] = s.regMis;
         j["reg_quality"] = s.regQuality;
@@ -150,6 +153,22 @@ std::string whyNotWritable(const fs::path& out) {
     return ok ? std::string() : fmt::format("cannot write in the folder '{}'", dir.string());
 }
 
+// What tau_0 and tau_N mean for a user (issue 45): the alpha that glass (eta 1.5, its refraction
+// lobe) and a mirror take under JG19's consistent schedule with the default bound (tight,
+// compensated), computed by the renderer's own functions.
+std::string regTauTable() {
+    std::string out = "alpha of smooth glass (eta 1.5) / a mirror under tau_N (tight bound, compensated):";
+    for (double tau0 : {30.0, 1000.0}) {
+        out += fmt::format(" tau_0 {}:", tau0);
+        for (uint64_t n : {uint64_t(1), uint64_t(256), uint64_t(65536)}) {
+            const float tau = float(consistentTau(tau0, n));
+            out += fmt::format(" N={} {:.3f}/{:.3f}{}", n, smoothLobeAlpha(tau, 1.5f, BoundForm::Tight, true),
+                               smoothLobeAlpha(tau, 0.f, BoundForm::Tight, true), n == 65536 ? ";" : ",");
+        }
+    }
+    return out;
+}
+
 int main(int argc, char** argv) {
     CLI::App app{"render: a light-transport renderer for Mitsuba 3 XML scenes"};
     std::string scenePath, output, integrator;
@@ -184,7 +203,7 @@ int main(int argc, char** argv) {
                    "singular.exr) to this directory");
     app.add_option("--pt-strategy", ptStrategy, "PT techniques: mis (default), nee, bsdf")
         ->check(CLI::IsMember({"mis", "nee", "bsdf"}));
-    std::string regularizer, regSchedule, regMis, regQuality, regDiffusion, regSpecular;
+    std::string regularizer, regSchedule, regMis, regQuality, regDiffusion, regSpecular, regBound, regEnergy;
     double regTau = -1.0;
     app.add_option("--reg", regularizer,
                    "Path-space regulariser: none (default), jg19 (microfacet roughness bound), kd13 (cone mollifier "
@@ -200,7 +219,7 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember(kRegularizerNames));
     app.add_option("--reg-tau", regTau,
                    "JG19 bound tau_0 on the BSDF at connections and merges (default 30 for pt/bpt/lt, 1000 for "
-                   "vcm/ppm; JG19 Sec. 6); must exceed 1/(2 pi)")
+                   "vcm/ppm; JG19 Sec. 6); must exceed 1/(2 pi). " + regTauTable())
         ->check(lt::cli::greaterThan(kMinTau, "1/(2 pi) = 0.159"));
     app.add_option("--reg-schedule", regSchedule,
                    "JG19 tau over iterations: consistent (default; Eq. 16, tau_N grows, the bias vanishes) or fixed")
@@ -224,6 +243,16 @@ int main(int argc, char** argv) {
                    "alpha_hat(tau')) or cone (KD13's cone mollifier with 1 / Omega = tau', JG19 Fig. 4: keeps the "
                    "delta's energy)")
         ->check(CLI::IsMember(kRegSpecularNames));
+    app.add_option("--reg-bound", regBound,
+                   "JG19 bound on a lobe's value (also --reg jg19,opsr): tight (default; the lobe's true supremum over "
+                   "all direction pairs: GGX glass at tau 30 -> alpha 0.31 instead of 0.79, 0.39 compensated) or published (Eqs. 8-9, "
+                   "to reproduce the paper)")
+        ->check(CLI::IsMember(kRegBoundNames));
+    app.add_option("--reg-energy", regEnergy,
+                   "JG19 and OPSR: a smooth mirror or glass made rough keeps the albedo of its delta lobes "
+                   "(compensate, default: F reflected and 1 - F transmitted, as the smooth surface) or loses what "
+                   "the single-scattering rough lobe loses (none)")
+        ->check(CLI::IsMember(kRegEnergyNames));
     double regR0 = -1.0, regLambda = -1.0;
     app.add_option("--reg-r0", regR0,
                    "KD13 initial radius r_0 of the cone at a smooth vertex, eps = arctan(r_N / l) over a connection of "
@@ -342,6 +371,8 @@ int main(int argc, char** argv) {
     settings.regQuality = !regQuality.empty() ? regQuality == "on" : desc.integrator.regQuality;
     settings.regDiffusion = !regDiffusion.empty() ? std::optional<bool>(regDiffusion == "on") : desc.integrator.regDiffusion;
     settings.regSpecular = !regSpecular.empty() ? regSpecular : desc.integrator.regSpecular;
+    settings.regBound = !regBound.empty() ? regBound : desc.integrator.regBound;
+    settings.regEnergy = !regEnergy.empty() ? regEnergy : desc.integrator.regEnergy;
     settings.regR0 = regR0 > 0.0 ? regR0 : desc.integrator.regR0;
     settings.regLambda = regLambda >= 0.0 ? regLambda : desc.integrator.regLambda;
     settings.regOpsrGamma = regOpsrGamma >= 0.0 ? regOpsrGamma : desc.integrator.regOpsrGamma;
@@ -352,7 +383,7 @@ int main(int argc, char** argv) {
     // A knob of another regulariser than the one that runs is a mistake, not a no-op.
     {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
-                              !regDiffusion.empty() || !regSpecular.empty();
+                              !regDiffusion.empty() || !regSpecular.empty() || !regBound.empty();
         const bool combined = settings.regularizer == "jg19,opsr";  // (JG19's bound and schedule only)
         const bool opsrRuns = settings.regularizer == "opsr" || combined;
         const bool kd13Knob = regR0 > 0.0 || (regLambda >= 0.0 && !opsrRuns);
@@ -366,9 +397,14 @@ int main(int argc, char** argv) {
         }
         const bool jg19Misplaced = jg19Knob && settings.regularizer != "jg19" && !combined;
         const bool opsrMisplaced = opsrKnob && !opsrRuns;
+        if (!regEnergy.empty() && settings.regularizer != "jg19" && !opsrRuns) {
+            fmt::print(stderr, "error: --reg-energy applies to --reg jg19, opsr and jg19,opsr only (this render: --reg {})\n",
+                       settings.regularizer);
+            return 1;
+        }
         if (jg19Misplaced || opsrMisplaced || (kd13Knob && settings.regularizer != "kd13")) {
             fmt::print(stderr, "error: {} applies to --reg {} only (this render: --reg {})\n",
-                       jg19Misplaced   ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular"
+                       jg19Misplaced   ? "--reg-tau/-schedule/-mis/-quality/-diffusion/-specular/-bound"
                        : opsrMisplaced ? "--reg-opsr-gamma/-table/-consistent/-always-sample"
                                        : "--reg-r0/--reg-lambda",
                        jg19Misplaced ? "jg19" : opsrMisplaced ? "opsr" : "kd13", settings.regularizer);

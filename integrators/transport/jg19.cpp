@@ -13,6 +13,10 @@ namespace lt::reg {
 Jg19::Jg19(const Jg19Settings& settings) : settings_(settings) {
     if (!(settings.tau0 > kMinTau))
         throw std::invalid_argument("JG19: tau must exceed 1/(2 pi) = 0.159, got " + std::to_string(settings.tau0));
+    for (BsdfContext* c : {&radiance_, &importance_}) {
+        c->reg.bound = settings.bound;
+        c->reg.compensate = settings.compensate;
+    }
     setIteration(1);
 }
 

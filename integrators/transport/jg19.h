@@ -124,6 +124,8 @@ struct Jg19Settings {
     bool quality = true;                           // the sampler quality heuristic, (2)
     bool diffusion = true;                         // the path diffusion heuristic, (4) (with quality only)
     SpecularMode specular = SpecularMode::Ggx;     // smooth lobes: rough GGX or KD13's cone (5)
+    BoundForm bound = BoundForm::Tight;            // (1) alpha_hat from the tight or the published bound
+    bool compensate = true;                        // (1) smooth lobes made rough keep their albedo
 };
 
 // One step of (4): the spread and footprint arriving at the next vertex, leaving a vertex with
@@ -167,7 +169,7 @@ public:
         const TransportMode mode = end == End::Light ? TransportMode::Importance : TransportMode::Radiance;
         for (int m = 0; m < 2; ++m)
             if (j >= 0 && tech.regularised[m] == j) {
-                BsdfContext c = end == End::Light ? importance_ : radiance_;
+                BsdfContext c = end == End::Light ? importance_ : radiance_;  // (bound form, compensation)
                 c.reg.tau = tech.bound[m];
                 if (cone()) c.reg.cone = coneForBound(tech.bound[m]);
                 c.valueOnly = true;
@@ -292,7 +294,7 @@ public:
             regularised = diffusion() ? 0.f : plain;  // ((4): no request changes it)
             return;
         }
-        plain = v.bxdf->plainBound();
+        plain = v.bxdf->plainBound(settings_.bound);
         if (!diffusion()) {
             regularised = v.bxdf->valueBound(radiance_);
             return;
@@ -300,7 +302,7 @@ public:
         // (4): the ceiling. A rough lobe changes under any bound below its own; a delta one under
         // a bound that makes it rough at least at kMinAlpha (none: an index-matched dielectric), or
         // as a cone (5) under every finite bound; a diffuse one under none (Bxdf::changeableBound).
-        regularised = v.deltaBsdf && cone() ? kInf : v.bxdf->changeableBound();
+        regularised = v.deltaBsdf && cone() ? kInf : v.bxdf->changeableBound(settings_.bound);
     }
 
 private:

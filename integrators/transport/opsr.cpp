@@ -225,7 +225,7 @@ float Opsr::boundOnly(const PathVertex& v) const {
     // where alpha_hat(tau_n) exceeds its alpha: its value bound falls.
     const BsdfContext ctx = contextFor(TransportMode::Radiance, v.roughness);
     if (!detail::requestCanChange(v, ctx)) return -1.f;
-    if (!v.deltaBsdf && !(v.bxdf->valueBound(ctx) < v.bxdf->valueBound(BsdfContext(TransportMode::Radiance))))
+    if (!v.deltaBsdf && !(v.bxdf->valueBound(ctx) < v.bxdf->plainBound(settings_.bound)))
         return -1.f;
     return v.roughness;
 }

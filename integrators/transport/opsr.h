@@ -169,6 +169,10 @@ struct OpsrSettings {
     // emitter-hit technique; below 1: never (every regularised vertex draws its own sample, the
     // plain form the tests compare with).
     float walkSampleBound = 4.f;
+    // The bound's form for (6) and the energy compensation of smooth lobes made rough (bsdf.h,
+    // RegularizationRequest).
+    BoundForm bound = BoundForm::Tight;
+    bool compensate = true;
 };
 
 class Opsr : public TailRoulette {  // (regularizer.h (9))
@@ -232,6 +236,8 @@ public:
         BsdfContext c(mode);
         c.reg.minAlpha = {g, g};
         if (tau_ > 0.f) c.reg.tau = tau_;
+        c.reg.bound = settings_.bound;
+        c.reg.compensate = settings_.compensate;
         return c;
     }
     static constexpr bool kPerTechnique = true;
