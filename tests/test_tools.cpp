@@ -524,16 +524,16 @@ TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machin
     REQUIRE(r.code == 0);
     std::string md = lt::analysis::readFile((dir / "B.md").string());
     CHECK(md.find("| configuration | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE | top-1% share | mean bias | "
-                  "regularised | relMSE outside |") != std::string::npos);
+                  "regularised | relMSE outside | bias outside |") != std::string::npos);
     // time, spp, samples/s, relMSE, RMS-RE, MAPE, the top-1% share in [0, 1] with three decimals,
     // the mean's bias in percent, the regularised share (none without a regulariser) and the
     // relMSE outside the singular pixels (none here: an area light).
     const std::string metrics = R"( \| [0-9.]+ \| [0-9]+ \| [0-9.e+]+ \| [0-9.e+-]+ \| [0-9.e+-]+ \| [0-9.e+-]+ \| )"
                                 R"([01]\.[0-9]{3} \| [+-][0-9]+\.[0-9]{2}% \| )";
-    CHECK(std::regex_search(md, std::regex(R"(\| pt)" + metrics + R"(- \| - \|\n)")));
+    CHECK(std::regex_search(md, std::regex(R"(\| pt)" + metrics + R"(- \| - \| - \|\n)")));
     // PT with each regulariser beside it (default --regularizers: all), and the summary of its
     // error over PT's.
-    CHECK(std::regex_search(md, std::regex(R"(\| pt\+jg19)" + metrics + R"([0-9.]+% \| - \|\n)")));
+    CHECK(std::regex_search(md, std::regex(R"(\| pt\+jg19)" + metrics + R"([0-9.]+% \| - \| - \|\n)")));
     CHECK(md.find("Paths no unregularised technique can produce") == std::string::npos);
     // (Every regulariser: JG19, JG19 with cones, KD13 and OPSR, each with PT, BPT and VCM.)
     CHECK(std::regex_search(md, std::regex(R"(## Regularisation at equal time[^]*\| scene \| pt\+jg19 \| bpt\+jg19 \| )"
@@ -554,8 +554,9 @@ TEST_CASE("bench: a one-scene smoke run writes the markdown table and the machin
     REQUIRE(std::regex_search(gmd, count, std::regex(R"(make up more than 1% of ([0-9]+) of the 256 pixels)")));
     CHECK(std::stoi(count[1]) > 0);
     CHECK(std::stoi(count[1]) < 256);
-    CHECK(std::regex_search(gmd, std::regex(R"(\| bpt)" + metrics + R"(- \| [0-9.e+-]+ \|\n)")));
-    CHECK(std::regex_search(gmd, std::regex(R"(\| pt\+jg19)" + metrics + R"([0-9.]+% \| [0-9.e+-]+ \|\n)")));
+    // (and the image mean's bias outside them, in percent)
+    CHECK(std::regex_search(gmd, std::regex(R"(\| bpt)" + metrics + R"(- \| [0-9.e+-]+ \| [+-][0-9]+\.[0-9]{2}% \|\n)")));
+    CHECK(std::regex_search(gmd, std::regex(R"(\| pt\+jg19)" + metrics + R"([0-9.]+% \| [0-9.e+-]+ \| [+-][0-9]+\.[0-9]{2}% \|\n)")));
     CHECK(std::regex_search(gmd, std::regex(R"(\| cornell-box-point-in-glass \| [0-9.e+-]+ / [0-9.e+-]+ \[[0-9.e+-]+\] )"
                                             R"(\| [0-9.e+-]+ / [0-9.e+-]+ \[[0-9.e+-]+\] \| - \|)")));
     CHECK(md.find("nproc") != std::string::npos);

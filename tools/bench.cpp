@@ -269,8 +269,8 @@ int main(int argc, char** argv) {
                                 "pixels out.\n\n",
                                 std::count(singular.begin(), singular.end(), true), singular.size());
         body += "| configuration | time [s] | spp | samples/s | relMSE | RMS-RE | MAPE | top-1% share | mean bias | "
-                "regularised | relMSE outside |\n"
-                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+                "regularised | relMSE outside | bias outside |\n"
+                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         for (const RunConfig& cfg : configs) {
             const std::string& integ = cfg.label;
             try {
@@ -291,15 +291,21 @@ int main(int argc, char** argv) {
                     s.regularizer == "none" || st.contributions == 0
                         ? "-"
                         : fmt::format("{:.1f}%", 100.0 * double(st.regularisedContributions) / double(st.contributions));
-                const double outside = singular.empty() ? -1.0 : computeMetrics(img, refImg, singular).relMse;
-                body += fmt::format("| {} | {:.2f} | {} | {:.3g} | {:.4g} | {:.4g} | {:.4g} | {:.3f} | {} | {} | {} |\n",
+                // (outside the singular pixels: the image mean's bias where the reference has the paths)
+                const ErrorMetrics out = singular.empty() ? ErrorMetrics{} : computeMetrics(img, refImg, singular);
+                const double outside = singular.empty() ? -1.0 : out.relMse;
+                const std::string biasOutside =
+                    singular.empty() || !(out.meanReference > 0.0)
+                        ? "-"
+                        : fmt::format("{:+.2f}%", 100.0 * (out.meanImage / out.meanReference - 1.0));
+                body += fmt::format("| {} | {:.2f} | {} | {:.3g} | {:.4g} | {:.4g} | {:.4g} | {:.3f} | {} | {} | {} | {} |\n",
                                     integ, st.seconds, st.spp, sps, m.relMse, m.rmsRelErr, m.mape,
                                     relMseTopShare(img, refImg), bias, share,
-                                    outside < 0.0 ? std::string("-") : fmt::format("{:.4g}", outside));
+                                    outside < 0.0 ? std::string("-") : fmt::format("{:.4g}", outside), biasOutside);
                 results[{scenePath, integ}] = {m.relMse, m.rmsRelErr, outside};
                 fmt::print("  {}: {} spp in {:.2f} s, relMSE {:.4g}\n", integ, st.spp, st.seconds, m.relMse);
             } catch (const std::exception& e) {
-                body += fmt::format("| {} | failed: {} | | | | | | | | | |\n", integ, e.what());
+                body += fmt::format("| {} | failed: {} | | | | | | | | | | |\n", integ, e.what());
                 ++failures;
             }
         }
