@@ -2,8 +2,8 @@
 // JG19 Sec. 3.2: the method preserves energy only if the microfacet model's loss is compensated).
 //
 // A smooth surface made rough becomes a GGX/Smith lobe (bsdf.h). Its single-scattering value loses
-// energy (alpha 0.79 glass: a third of the light), so a regularised path tracer lit a room seen
-// around a glass sphere at 0.62 of the truth. The compensated lobe keeps, for every direction l on
+// energy (at alpha 1 as much as two thirds), and a regularised path tracer lit a room seen around a
+// glass sphere far below the truth. The compensated lobe keeps, for every direction l on
 // the LIGHT side of the vertex, the flux the delta lobe it replaces sends on:
 //   f_c(l -> c) = W(mu_l) f1(l, c) / E(mu_l, alpha),
 // f1 the Fresnel-free lobe (microfacet.h), E its directional albedo (albedo.h), W the delta lobe's
@@ -11,8 +11,9 @@
 // 1 - F(mu_l) for refraction, F seen from l's side (KD13's cone spreads the same weights,
 // cone_mollifier.h). Hence the integral of f_c |cos c| over c is W(mu_l), up to the tables'
 // interpolation. l is wi in Radiance mode and wo in Importance mode (light flows l -> c), so every
-// technique evaluates the same f_c on a path. The shape of the lobe and its sampling densities are
-// the rough lobe's; only the value is scaled.
+// technique evaluates the same f_c on a path. The shape of the lobe is the rough lobe's; only the
+// value is scaled. (Sampling: the dielectric chooses reflection or refraction by the macro Fresnel of
+// wo, the weight the value spreads, so the sample weight has no 1 / F(facet) tail.)
 // Why this model rather than Kulla and Conty's added multiple-scattering lobe: it is exact per
 // direction for any eta (a dielectric's reflection and refraction keep F and 1 - F separately),
 // needs one table look-up, keeps the regularised lobe's shape (Kulla-Conty adds a broad lobe, more
@@ -23,8 +24,9 @@
 //
 // The bound: sup f_c <= rho_bar(alpha) K(alpha), K(alpha) = sup over mu_l of W / E (with a 1%
 // margin for the sampling over mu and the interpolation over alpha; tests/test_energy_compensation.cpp
-// checks the value against tau over sampled pairs). alphaFor(tau) is the least alpha (bisection)
-// with rho_bar(alpha) K(alpha) <= tau, so the compensated lobe's value stays under tau.
+// checks the value against tau over sampled pairs). alphaFor(tau) is the least alpha with
+// rho_bar(alpha) K(alpha) <= tau (a tabulated bisection), so the compensated lobe's value stays under
+// tau.
 #pragma once
 #include <array>
 
