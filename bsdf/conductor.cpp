@@ -7,6 +7,8 @@
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
 
+#include <optional>
+
 namespace lt {
 
 namespace {
@@ -15,8 +17,8 @@ class ConductorBxdf final : public Bxdf {
 public:
     ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
                   const Color& k, const Color& specR)
-        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR),
-          comp_(1.f, false) {
+        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {
+        if (!rough) comp_.emplace(1.f, false);
         continuation_ = continuationOf(specR);  // the Fresnel factor is <= 1 on top
         cacheBounds();
     }
@@ -86,7 +88,7 @@ public:
         if (a.delta) return kInf;
         // (Microfacet clamps each alpha to kMinAlpha; the smaller axis bounds an anisotropic lobe.)
         const float alpha = std::max(std::min(a.u, a.v), kMinAlpha);
-        if (compensated(ctx.reg)) return comp_.valueBound(false, alpha, ctx.reg.bound);
+        if (compensated(ctx.reg)) return comp_->valueBound(false, alpha, ctx.reg.bound);
         return maxValueBound(lobe_.type, lobe_.masking, alpha, false, 1.f, ctx.reg.bound);
     }
     // (one-sided: a pair below the surface is 0 under every request)
@@ -114,7 +116,7 @@ private:
     bool compensated(const RegularizationRequest& r) const { return !rough_ && r.compensate; }
     // The request resolved; a compensated lobe's bound is its own (alphaFor).
     MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r) const {
-        return compensated(r) ? comp_.resolve(lobe_, r, false) : lobe_.resolve(r, false, 1.f);
+        return compensated(r) ? comp_->resolve(lobe_, r, false) : lobe_.resolve(r, false, 1.f);
     }
     // specR F(mu_l) f1 / E_R(mu_l): the mirror's weight F spread over the rough lobe, l the light
     // side (wi for Radiance, wo for Importance).
@@ -160,7 +162,7 @@ private:
     bool rough_;
     MicrofacetLobe lobe_;
     Color eta_, k_, specR_;
-    SmoothLobeCompensation comp_;  // (used for a smooth conductor only)
+    std::optional<SmoothLobeCompensation> comp_;  // (a smooth conductor's: compensated())
 };
 
 }  // namespace

@@ -14,6 +14,8 @@
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
 
+#include <optional>
+
 namespace lt {
 
 namespace {
@@ -23,7 +25,8 @@ public:
     DielectricBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, float eta,
                    const Color& specR, const Color& specT)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), specR_(specR),
-          specT_(specT), comp_(eta, true) {
+          specT_(specT) {
+        if (!rough) comp_.emplace(eta, true);
         continuation_ = std::max(continuationOf(specR), continuationOf(specT));
         cacheBounds();
     }
@@ -173,7 +176,7 @@ public:
             if (a.delta) continue;
             const float alpha = std::max(std::min(a.u, a.v), kMinAlpha);
             bound = std::max(bound, compensated(ctx.reg)
-                                        ? comp_.valueBound(transmission, alpha, ctx.reg.bound)
+                                        ? comp_->valueBound(transmission, alpha, ctx.reg.bound)
                                         : maxValueBound(lobe_.type, lobe_.masking, alpha, transmission, eta_, ctx.reg.bound));
         }
         return bound < 0.f ? kInf : bound;
@@ -190,7 +193,7 @@ private:
     bool compensated(const RegularizationRequest& r) const { return !rough_ && r.compensate && eta_ != 1.f; }
     // The request resolved for one lobe; a compensated lobe's bound is its own (alphaFor).
     MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r, bool transmission) const {
-        return compensated(r) ? comp_.resolve(lobe_, r, transmission) : lobe_.resolve(r, transmission, eta_);
+        return compensated(r) ? comp_->resolve(lobe_, r, transmission) : lobe_.resolve(r, transmission, eta_);
     }
 
     // The compensated rough lobe of a smooth interface (energy_compensation.h): each lobe's
@@ -327,7 +330,7 @@ private:
     MicrofacetLobe lobe_;
     float eta_;
     Color specR_, specT_;
-    SmoothLobeCompensation comp_;  // (used for a smooth interface only)
+    std::optional<SmoothLobeCompensation> comp_;  // (a smooth interface's: compensated())
 };
 
 }  // namespace
