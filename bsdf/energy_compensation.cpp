@@ -121,10 +121,4 @@ float SmoothLobeCompensation::alphaByBisection(float tau, bool transmission, Bou
     return hi * hi;
 }
 
-float smoothLobeAlpha(float tau, float eta, BoundForm form, bool compensate) {
-    const bool glass = eta > 0.f;
-    if (compensate) return SmoothLobeCompensation(glass ? eta : 1.f, glass).alphaFor(tau, glass, form);
-    return alphaForBound(kType, kMasking, tau, glass, glass ? eta : 1.f, form);
-}
-
 }  // namespace lt

@@ -67,8 +67,4 @@ private:
     bool dielectric_;
 };
 
-// The alpha a smooth lobe takes under the bound tau (what a user sees of tau; render --help and the
-// README's table): the refraction lobe of glass with relative IOR eta, or a mirror (eta 0).
-float smoothLobeAlpha(float tau, float eta, BoundForm form, bool compensate);
-
 }  // namespace lt

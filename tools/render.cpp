@@ -158,12 +158,13 @@ std::string whyNotWritable(const fs::path& out) {
 // compensated), computed by the renderer's own functions.
 std::string regTauTable() {
     std::string out = "alpha of smooth glass (eta 1.5) / a mirror under tau_N (tight bound, compensated):";
+    const SmoothLobeCompensation glass(1.5f, true), mirror(1.f, false);  // (built once: a few ms each)
     for (double tau0 : {30.0, 1000.0}) {
         out += fmt::format(" tau_0 {}:", tau0);
         for (uint64_t n : {uint64_t(1), uint64_t(256), uint64_t(65536)}) {
             const float tau = float(consistentTau(tau0, n));
-            out += fmt::format(" N={} {:.3f}/{:.3f}{}", n, smoothLobeAlpha(tau, 1.5f, BoundForm::Tight, true),
-                               smoothLobeAlpha(tau, 0.f, BoundForm::Tight, true), n == 65536 ? ";" : ",");
+            out += fmt::format(" N={} {:.3f}/{:.3f}{}", n, glass.alphaFor(tau, true, BoundForm::Tight),
+                               mirror.alphaFor(tau, false, BoundForm::Tight), n == 65536 ? ";" : ",");
         }
     }
     return out;
