@@ -68,8 +68,9 @@ struct Roughness {
 //             valueBound is 1 / Omega(eps). With tau too: JG19 with --reg-specular cone.
 //   bound     how tau becomes alpha_hat: the lobe's true supremum (Tight) or JG19's Eqs. 8-9
 //             (Published, to reproduce the paper); roughness_bound.h
-//   compensate  a smooth conductor or dielectric made rough keeps the albedo of its delta lobes
-//             (bsdf/energy_compensation.h); its alpha_hat then bounds the compensated value
+//   compensate  a smooth conductor or dielectric made rough keeps the albedo of its delta lobes,
+//             an isotropic glossy one made rougher its own (bsdf/energy_compensation.h); its
+//             alpha_hat then bounds the compensated value
 // A smooth (delta) conductor or dielectric whose resolved alpha reaches kMinAlpha becomes a rough
 // GGX/Smith lobe. Diffuse and rough lobes ignore the cone, diffuse lobes the whole request.
 // bound and compensate only qualify the other fields: they alone make no request.
@@ -145,7 +146,7 @@ enum class MaskingModel { Smith, VCavity };
 // (Bxdf::requestRatio): a regulariser's ratio at a vertex without evaluating the BSDF twice
 // (OPSR's Eq. 12 factors at every inner glossy vertex of a connection, opsr.h (5)).
 struct PairGeometry {
-    enum class Lobe : int {
+    enum class Lobe : uint8_t {
         Unavailable,   // the model has no such form (anisotropic, not microfacet, delta): evaluate
         Zero,          // the pair's value is 0 under every request (sides, chi, no refraction)
         Reflection,
@@ -155,7 +156,11 @@ struct PairGeometry {
     // is Unavailable)
     float tanH2, tanO2, tanI2;
     Lobe lobe;
+    bool woAbove;  // wo.z > 0 (a compensated refraction's side of the light, energy_compensation.h)
     bool available() const { return lobe != Lobe::Unavailable; }
+    // |cos| of wo and wi (an energy compensation's light-side cosine).
+    float cosO() const { return 1.f / std::sqrt(1.f + tanO2); }
+    float cosI() const { return 1.f / std::sqrt(1.f + tanI2); }
 };
 
 // Lambert's model (f = R / pi, cosine-weighted sampling), the one implementation: the diffuse
@@ -222,7 +227,9 @@ public:
     // rounding. Exactly 1 where the request changes no alpha of the pair's lobe or the value is 0
     // under every request (Lobe::Zero); where only the plain value underflows (a Beckmann lobe far
     // from its peak) large or +inf.
-    virtual float requestRatio(const PairGeometry& /*g*/, const RegularizationRequest& /*r*/) const { return 1.f; }
+    // (ctx: the request and the transport mode, whose light side an energy-compensated lobe's
+    // value depends on: energy_compensation.h)
+    virtual float requestRatio(const PairGeometry& /*g*/, const BsdfContext& /*ctx*/) const { return 1.f; }
     // The same for the sampling density of wi given wo (eval's pdfFwd): its only factor that
     // depends on alpha is the visible-normal density of wo, D(h) G1(wo, h), so the ratio is
     // D' G1'(wo) / (D G1(wo)) (a regulariser's own density at a connection end, OPSR's path tracer).

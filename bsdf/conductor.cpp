@@ -18,7 +18,7 @@ public:
     ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
                   const Color& k, const Color& specR)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {
-        if (!rough) comp_.emplace(1.f, false);
+        if (!rough || au == av) comp_.emplace(lobe_, 1.f, false);  // (energy_compensation.h: isotropic lobes)
         continuation_ = continuationOf(specR);  // the Fresnel factor is <= 1 on top
         cacheBounds();
     }
@@ -27,8 +27,11 @@ public:
         if (!rough_ && ctx.reg.cone > 0.f) return evalCone(wo, wi, ctx.reg.cone);  // (whatever else is asked)
         const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
         if (a.delta) return BsdfEval{};
-        if (compensated(ctx.reg)) return evalCompensated(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
-        return evalRough(lobe_.microfacet(a), wo, wi, ctx.valueOnly);
+        if (!compensated(ctx.reg, a)) return evalRough(lobe_.microfacet(a), wo, wi, ctx.valueOnly);
+        if (!rough_) return evalCompensated(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
+        BsdfEval e = evalRough(lobe_.microfacet(a), wo, wi, ctx.valueOnly);
+        e.f *= comp_->reflectionScale(lightSide(wo, wi, ctx.mode).z, a.u);
+        return e;
     }
 
     bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
@@ -64,12 +67,12 @@ public:
         out.wi = wi;
         // f cos / pdf = F D G2 / (4 cos_o) / (G1(wo) D / (4 cos_o)) = F G2 / G1(wo): no overflow.
         const float ratio = mf.G2(wo, wi, g1, mf.G1(wi, m)) / g1;
-        if (compensated(ctx.reg)) {  // (energy_compensation.h: F and 1 / E at the light side)
-            const float muL = ctx.mode == TransportMode::Radiance ? wi.z : wo.z;
-            out.weight = specR_ * fresnelConductor(muL, eta_, k_) *
-                         (SmoothLobeCompensation::reflectionScale(muL, 0.5f * (a.u + a.v)) * ratio);
+        if (compensated(ctx.reg, a) && !rough_) {  // (energy_compensation.h: F and 1 / E at the light side)
+            const float muL = lightSide(wo, wi, ctx.mode).z;
+            out.weight = specR_ * fresnelConductor(muL, eta_, k_) * (comp_->reflectionScale(muL, 0.5f * (a.u + a.v)) * ratio);
         } else {
             out.weight = specR_ * fresnelConductor(wom, eta_, k_) * ratio;
+            if (compensated(ctx.reg, a)) out.weight *= comp_->reflectionScale(lightSide(wo, wi, ctx.mode).z, a.u);
         }
         out.pdfFwd = SolidAnglePdf(pdfFwd);
         out.pdfRev = SolidAnglePdf(r.reflectDensity(wi, r.gI));
@@ -88,35 +91,50 @@ public:
         if (a.delta) return kInf;
         // (Microfacet clamps each alpha to kMinAlpha; the smaller axis bounds an anisotropic lobe.)
         const float alpha = std::max(std::min(a.u, a.v), kMinAlpha);
-        if (compensated(ctx.reg)) return comp_->valueBound(false, alpha, ctx.reg.bound);
+        if (compensated(ctx.reg, a)) return comp_->valueBound(false, alpha, ctx.reg.bound);
         return maxValueBound(lobe_.type, lobe_.masking, alpha, false, 1.f, ctx.reg.bound);
     }
     // (one-sided: a pair below the surface is 0 under every request)
     PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
         if (!rough_ || lobe_.alphaU != lobe_.alphaV) return {};
-        if (!(wo.z > 0.f) || !(wi.z > 0.f)) return PairGeometry{0.f, 0.f, 0.f, PairGeometry::Lobe::Zero};
+        if (!(wo.z > 0.f) || !(wi.z > 0.f)) return PairGeometry{0.f, 0.f, 0.f, PairGeometry::Lobe::Zero, false};
         return microfacetPairGeometry(wo, wi, 1.f, lobe_.masking);
     }
-    float requestRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
-        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, false, 1.f).u, g);
+    float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override {
+        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
+        const float ratio = microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, a.u, g);
+        if (!rough_ || !compensated(ctx.reg, a) || g.lobe != PairGeometry::Lobe::Reflection) return ratio;
+        return ratio * comp_->reflectionScale(ctx.mode == TransportMode::Radiance ? g.cosI() : g.cosO(), a.u);
     }
     float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
-        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, false, 1.f).u, g, true);
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(r).u, g, true);
     }
     float requestRatioBound(const RegularizationRequest& r) const override {
         if (!rough_ || lobe_.alphaU != lobe_.alphaV) return kInf;
-        return microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, lobe_.resolve(r, false, 1.f).u);
+        const MicrofacetLobe::Resolved a = resolveFor(r);
+        const float bound = microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, a.u);
+        return compensated(r, a) ? bound * comp_->boundFactor(false, a.u) : bound;
     }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }
 
 private:
-    // Whether a request makes this smooth conductor a compensated rough lobe (energy_compensation.h).
-    bool compensated(const RegularizationRequest& r) const { return !rough_ && r.compensate; }
+    // Whether a request is resolved with the compensation (energy_compensation.h: where it can
+    // keep the value under the request's bound).
+    bool compensates(const RegularizationRequest& r) const { return r.compensate && comp_ && comp_->meets(r, false); }
+    // Whether the lobe a request resolved to (a) is compensated: a smooth conductor made rough, a
+    // glossy isotropic one made rougher.
+    bool compensated(const RegularizationRequest& r, const MicrofacetLobe::Resolved& a) const {
+        return compensates(r) && (!rough_ || a.u != lobe_.alphaU);
+    }
+    // The light side of a pair (energy_compensation.h): wi for Radiance, wo for Importance.
+    static const Vec3& lightSide(const Vec3& wo, const Vec3& wi, TransportMode mode) {
+        return mode == TransportMode::Radiance ? wi : wo;
+    }
     // The request resolved; a compensated lobe's bound is its own (alphaFor).
     MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r) const {
-        return compensated(r) ? comp_->resolve(lobe_, r, false) : lobe_.resolve(r, false, 1.f);
+        return compensates(r) ? comp_->resolve(lobe_, r, false) : lobe_.resolve(r, false, 1.f);
     }
     // specR F(mu_l) f1 / E_R(mu_l): the mirror's weight F spread over the rough lobe, l the light
     // side (wi for Radiance, wo for Importance).
@@ -128,7 +146,7 @@ private:
         if (!(r.value > 0.f)) return e;
         const float muL = mode == TransportMode::Radiance ? wi.z : wo.z;
         e.f = specR_ * fresnelConductor(muL, eta_, k_) *
-              (SmoothLobeCompensation::reflectionScale(muL, 0.5f * (mf.alphaU() + mf.alphaV())) * r.value);
+              (comp_->reflectionScale(muL, 0.5f * (mf.alphaU() + mf.alphaV())) * r.value);
         if (valueOnly) return e;
         e.pdfFwd = SolidAnglePdf(r.reflectDensity(wo, r.gO));
         e.pdfRev = SolidAnglePdf(r.reflectDensity(wi, r.gI));
@@ -162,7 +180,7 @@ private:
     bool rough_;
     MicrofacetLobe lobe_;
     Color eta_, k_, specR_;
-    std::optional<SmoothLobeCompensation> comp_;  // (a smooth conductor's: compensated())
+    std::optional<LobeCompensation> comp_;  // (smooth or isotropic: compensated())
 };
 
 }  // namespace

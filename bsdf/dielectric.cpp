@@ -26,7 +26,7 @@ public:
                    const Color& specR, const Color& specT)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), specR_(specR),
           specT_(specT) {
-        if (!rough) comp_.emplace(eta, true);
+        if (!rough && eta != 1.f) comp_.emplace(eta, true);  // (energy_compensation.h: smooth interfaces only)
         continuation_ = std::max(continuationOf(specR), continuationOf(specT));
         cacheBounds();
     }
@@ -114,7 +114,7 @@ public:
         out.wi = wi;
         out.pdfFwd = SolidAnglePdf(pdfFwd);
         out.pdfRev = SolidAnglePdf(pdfImpl(mf, wi, wo, macro));
-        if (compensated(ctx.reg)) {  // (the compensated value over the same density)
+        if (macro) {  // (the compensated value over the same density)
             out.weight = evalCompensated(mf, wo, wi, mode, true).f * (std::abs(wi.z) / pdfFwd);
             out.lobe = reflect ? (kReflection | kGlossy) : (kTransmission | kGlossy);
             out.eta = reflect ? 1.f : etaRel;
@@ -141,20 +141,20 @@ public:
         return microfacetPairGeometry(wo, wi, eta_, lobe_.masking);
     }
     // (the request resolved for the pair's lobe, as eval resolves it)
-    float requestRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+    // (a glossy lobe is never compensated: the pair's ratio is D' G2' / (D G2) alone)
+    float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override {
         const bool transmission = g.lobe == PairGeometry::Lobe::Transmission;
-        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, transmission, eta_).u, g);
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(ctx.reg, transmission).u, g);
     }
     float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
         const bool transmission = g.lobe == PairGeometry::Lobe::Transmission;
-        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, lobe_.resolve(r, transmission, eta_).u, g,
-                                    true);
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(r, transmission).u, g, true);
     }
     // (both lobes: the request resolves to its own alpha for each)
     float requestRatioBound(const RegularizationRequest& r) const override {
         if (!rough_ || eta_ == 1.f || lobe_.alphaU != lobe_.alphaV) return kInf;
-        return std::max(microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, lobe_.resolve(r, false, eta_).u),
-                        microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, lobe_.resolve(r, true, eta_).u));
+        return std::max(microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, resolveFor(r, false).u),
+                        microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, resolveFor(r, true).u));
     }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
@@ -189,8 +189,13 @@ private:
         const MicrofacetLobe::Resolved t = resolveFor(r, true), q = resolveFor(r, false);
         return {std::max(t.u, q.u), std::max(t.v, q.v), t.delta && q.delta};
     }
-    // Whether a request makes this smooth interface a compensated rough lobe (energy_compensation.h).
-    bool compensated(const RegularizationRequest& r) const { return !rough_ && r.compensate && eta_ != 1.f; }
+    // Whether a request makes this smooth interface a compensated rough lobe (energy_compensation.h:
+    // where the compensation keeps both lobes' values under the request's bound). A glossy
+    // interface is not compensated: the Fresnel-free albedo ratio of each lobe misplaces the energy
+    // that total internal reflection moves between the lobes as the normals widen.
+    bool compensated(const RegularizationRequest& r) const {
+        return r.compensate && comp_ && comp_->meets(r, false) && comp_->meets(r, true);
+    }
     // The request resolved for one lobe; a compensated lobe's bound is its own (alphaFor).
     MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r, bool transmission) const {
         return compensated(r) ? comp_->resolve(lobe_, r, transmission) : lobe_.resolve(r, transmission, eta_);
@@ -207,10 +212,10 @@ private:
         const float F = fresnelDielectric(muL, etaL);
         const float alpha = 0.5f * (mf.alphaU() + mf.alphaV());
         if (wo.z * wi.z > 0.f) {
-            e.f = specR_ * (F * SmoothLobeCompensation::reflectionScale(muL, alpha) * microfacetReflection(mf, wo, wi));
+            e.f = specR_ * (F * comp_->reflectionScale(muL, alpha) * microfacetReflection(mf, wo, wi));
         } else {
             if (!refractionGeometry(wo, wi).valid) return e;
-            e.f = specT_ * ((1.f - F) * SmoothLobeCompensation::transmissionScale(muL, alpha, etaL) *
+            e.f = specT_ * ((1.f - F) * comp_->transmissionScale(muL, alpha, etaL) *
                             microfacetTransmission(mf, wo, wi, eta_, mode));
         }
         if (valueOnly) return e;
@@ -330,7 +335,7 @@ private:
     MicrofacetLobe lobe_;
     float eta_;
     Color specR_, specT_;
-    std::optional<SmoothLobeCompensation> comp_;  // (a smooth interface's: compensated())
+    std::optional<LobeCompensation> comp_;  // (a smooth interface's: compensated())
 };
 
 }  // namespace

@@ -60,8 +60,8 @@ public:
     PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
         return wo.z < 0.f ? inner_->pairGeometry(flip(wo), flip(wi)) : inner_->pairGeometry(wo, wi);
     }
-    float requestRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
-        return inner_->requestRatio(g, r);
+    float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override {
+        return inner_->requestRatio(g, ctx);
     }
     float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
         return inner_->requestPdfRatio(g, r);

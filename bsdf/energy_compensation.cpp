@@ -10,8 +10,6 @@
 namespace lt {
 
 namespace {
-constexpr MicrofacetType kType = MicrofacetType::GGX;  // (a smooth lobe made rough is GGX/Smith: bsdf.h)
-constexpr MaskingModel kMasking = MaskingModel::Smith;
 // K's upward margin over its samples (96 cosines per alpha node, linear between the nodes).
 constexpr float kMargin = 1.01f;
 constexpr int kMus = 96;
@@ -19,32 +17,46 @@ float muAt(int j) {
     const float t = float(j) / float(kMus - 1);
     return kAlbedoMuMin + (1.f - kAlbedoMuMin) * t * t;  // (denser at grazing, where E falls fastest)
 }
+// Cosines above the critical angle of a light side inside the denser medium (etaL < 1), denser
+// towards it: E(alpha) falls to 0 there faster than E(alpha_0) (the peak of K_T lies within 0.005
+// of it for alpha <= 0.6); none for etaL > 1.
+constexpr int kCriticalMus = 256;
+float criticalMuAt(int j, float etaL) {
+    if (!(etaL < 1.f)) return 1.f;
+    const float muC = std::sqrt(1.f - etaL * etaL), t = float(j) / float(kCriticalMus - 1);
+    return std::min(1.f, muC + 0.2f * t * t);
+}
 }  // namespace
 
-float SmoothLobeCompensation::reflectionScale(float muL, float alpha) {
-    return 1.f / reflectionAlbedo(kType, kMasking, muL, alpha);
+float LobeCompensation::reflectionScale(float muL, float alpha) const {
+    const float e = reflectionAlbedo(type_, masking_, muL, alpha);
+    if (smooth()) return 1.f / e;
+    return alpha == alpha0_ ? 1.f : reflectionAlbedo(type_, masking_, muL, alpha0_) / e;
 }
 
-float SmoothLobeCompensation::transmissionScale(float muL, float alpha, float etaL) {
-    const float e = transmissionAlbedo(kType, kMasking, muL, alpha, etaL);
-    return e > 0.f ? 1.f / e : 0.f;  // (no refraction from l at all: W = 1 - F is 0 there too)
+float LobeCompensation::transmissionScale(float muL, float alpha, float etaL) const {
+    const float e = transmissionAlbedo(type_, masking_, muL, alpha, etaL);
+    if (!(e > 0.f)) return 0.f;  // (no refraction from l at all: W = 1 - F, resp. E(alpha_0), is 0 there too)
+    if (smooth()) return 1.f / e;
+    return alpha == alpha0_ ? 1.f : transmissionAlbedo(type_, masking_, muL, alpha0_, etaL) / e;
 }
 
-SmoothLobeCompensation::SmoothLobeCompensation(float eta, bool dielectric) : eta_(eta), dielectric_(dielectric) {
+LobeCompensation::LobeCompensation(const MicrofacetLobe& lobe, float eta, bool dielectric)
+    : type_(lobe.type), masking_(lobe.masking), alpha0_(lobe.alphaU), eta_(eta), dielectric_(dielectric) {
     for (int k = 0; k < kAlphas; ++k) {
         const float t = float(k) / float(kAlphas - 1);
-        const float alpha = std::max(t * t, kMinAlpha);
+        const float alpha = std::max({t * t, kMinAlpha, alpha0_});  // (K(alpha_0) below alpha_0)
         float r = 0.f, tr = 0.f;
-        for (int j = 0; j < kMus; ++j) {
-            const float mu = muAt(j);
+        for (int j = 0; j < kMus + (dielectric ? 2 * kCriticalMus : 0); ++j) {
+            const float mu = j < kMus ? muAt(j) : criticalMuAt(j - kMus, j - kMus < kCriticalMus ? eta : 1.f / eta);
             if (!dielectric) {
                 r = std::max(r, reflectionScale(mu, alpha));
                 continue;
             }
             for (float etaL : {eta, 1.f / eta}) {
-                const float F = fresnelDielectric(mu, etaL);
-                r = std::max(r, F * reflectionScale(mu, alpha));
-                tr = std::max(tr, (1.f - F) * transmissionScale(mu, alpha, etaL));
+                const float F = smooth() ? fresnelDielectric(mu, etaL) : 0.f;
+                r = std::max(r, (smooth() ? F : 1.f) * reflectionScale(mu, alpha));
+                tr = std::max(tr, (smooth() ? 1.f - F : 1.f) * transmissionScale(mu, alpha, etaL));
             }
         }
         kR_[size_t(k)] = r;
@@ -60,20 +72,19 @@ SmoothLobeCompensation::SmoothLobeCompensation(float eta, bool dielectric) : eta
         }
 }
 
-float SmoothLobeCompensation::boundFactor(bool transmission, float alpha) const {
+float LobeCompensation::boundFactor(bool transmission, float alpha) const {
     const std::array<float, kAlphas>& K = transmission ? kT_ : kR_;
     const float x = std::clamp(std::sqrt(std::max(alpha, 0.f)), 0.f, 1.f) * float(kAlphas - 1);
     const int i = std::min(int(x), kAlphas - 2);
-    const float t = x - float(i);  // (linear: K is smooth in alpha, its curvature within the margin)
-    return kMargin * ((1.f - t) * K[size_t(i)] + t * K[size_t(i + 1)]);
+    return kMargin * std::max(K[size_t(i)], K[size_t(i + 1)]);  // (K grows with alpha: the upper node bounds the cell)
 }
 
-float SmoothLobeCompensation::valueBound(bool transmission, float alpha, BoundForm form) const {
+float LobeCompensation::valueBound(bool transmission, float alpha, BoundForm form) const {
     const float a = std::max(alpha, kMinAlpha);
-    return maxValueBound(kType, kMasking, a, transmission, dielectric_ ? eta_ : 1.f, form) * boundFactor(transmission, a);
+    return maxValueBound(type_, masking_, a, transmission, dielectric_ ? eta_ : 1.f, form) * boundFactor(transmission, a);
 }
 
-float SmoothLobeCompensation::alphaFor(float tau, bool transmission, BoundForm form) const {
+float LobeCompensation::alphaFor(float tau, bool transmission, BoundForm form) const {
     const float x = (std::log10(tau) - float(kTauMin)) * float(kTausPerDecade);
     if (!(x >= 0.f && x < float(kTaus - 1)) || (transmission && !dielectric_))
         return alphaByBisection(tau, transmission, form);  // (outside the table: rare)
@@ -93,7 +104,12 @@ float SmoothLobeCompensation::alphaFor(float tau, bool transmission, BoundForm f
     return hi;
 }
 
-MicrofacetLobe::Resolved SmoothLobeCompensation::resolve(const MicrofacetLobe& lobe, const RegularizationRequest& r,
+bool LobeCompensation::meets(const RegularizationRequest& r, bool transmission) const {
+    if (!(r.tau < kInf)) return true;
+    return valueBound(transmission, alphaFor(r.tau, transmission, r.bound), r.bound) <= r.tau;
+}
+
+MicrofacetLobe::Resolved LobeCompensation::resolve(const MicrofacetLobe& lobe, const RegularizationRequest& r,
                                                          bool transmission) const {
     const float eta = dielectric_ ? eta_ : 1.f;
     if (!(r.tau < kInf)) return lobe.resolve(r, transmission, eta);
@@ -107,7 +123,7 @@ MicrofacetLobe::Resolved SmoothLobeCompensation::resolve(const MicrofacetLobe& l
     return a;
 }
 
-float SmoothLobeCompensation::alphaByBisection(float tau, bool transmission, BoundForm form) const {
+float LobeCompensation::alphaByBisection(float tau, bool transmission, BoundForm form) const {
     if (!(tau > 0.f)) return 1.f;
     if (std::isinf(tau)) return 0.f;
     if (transmission && eta_ == 1.f) return 1.f;

@@ -305,6 +305,7 @@ PairGeometry microfacetPairGeometry(const Vec3& wo, const Vec3& wi, float eta, M
     g.tanH2 = tan2(h);
     g.tanO2 = tan2(wo);
     g.tanI2 = tan2(wi);
+    g.woAbove = wo.z > 0.f;
     g.lobe = reflection ? PairGeometry::Lobe::Reflection : PairGeometry::Lobe::Transmission;
     return g;
 }

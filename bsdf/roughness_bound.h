@@ -32,21 +32,26 @@
 //   alphas <= 1 (D_max = 1/(pi alpha_u alpha_v) and the G1 bound use the smaller alpha).
 // * The Smith refraction bound (Eq. 9 with the Smith G_bar) is valid but loose: for a refraction
 //   pair the 1/|cos| factors cancel against |o.h| |i.h| at grazing angles, so the measured sup of
-//   f_t is below rho_bar_t by about alpha^2/4 (tests/test_microfacet_bounds.cpp); alpha_hat for
-//   Smith refraction therefore over-regularises. Kept as published.
+//   f_t is rho_bar_t times about alpha^2/4 (GGX; alpha^2 / (4 pi) for Beckmann at small alpha);
+//   alpha_hat for Smith refraction therefore over-regularises. Kept as published.
 // * TIGHT FORM (BoundForm::Tight, the default of a regularisation request; issue 45): the true
 //   supremum of the bounded quantity over all direction pairs, both transport modes and both
-//   sides. It differs from the published form only for Smith refraction: the supremum is reached
-//   at normal incidence (G1 = 1: c D_max, c = max(1, eta^2) / (1 - eta)^2) or, for larger alpha,
-//   at grazing pairs, where the Jacobian's |i.h| |o.h| cancels the 1/|cos| of G1. For GGX,
-//   measured by a 3D search over (theta_o, theta_h, phi_h) for eta in [1.01, 4] (both sides) and
-//   alpha in [0.02, 1]: sup f_t = c / pi max(1 / alpha^2, 4) within 3e-5, i.e. alpha^2 / 4 of Eq. 9
-//   for alpha <= 1/2; it is used with a 0.1% upward margin (tests/test_microfacet_bounds.cpp checks
-//   it holds and is tight over dense sweeps). The published Smith reflection bound and the
-//   V-cavity bounds are already the suprema (reached at a grazing mirror pair, resp. at normal
-//   incidence), so the tight form equals them. Beckmann/Smith refraction keeps the published
-//   bound: its supremum has a third branch (grazing wo, wi near 65 degrees) whose height depends
-//   on eta and alpha (1.9-2.8 c for alpha in [0.4, 1]), not yet tabulated.
+//   sides, with a 0.1% upward margin. It differs from the published form only for Smith
+//   refraction with alpha <= 1: sup f_t = c D_max max(1, G(alpha, eta)), c = max(1, eta^2) /
+//   (1 - eta)^2. The 1 is normal incidence (G1 = 1); G is the grazing branch, pairs whose
+//   lighter-side direction grazes, where the Jacobian's |i.h| |o.h| cancels the 1/|cos| of G1.
+//   GGX: G = 4 alpha^2, i.e. sup f_t = c / pi max(1 / alpha^2, 4) (measured within 3e-5 by a 3D
+//   search over (theta_o, theta_h, phi_h), eta in [1.01, 4] both sides, alpha in [0.02, 1]), a
+//   quarter alpha^2 of Eq. 9 for alpha <= 1/2. Beckmann (the same search, then a 1D one along
+//   the branch): the branch peaks with h tilted towards the grazing direction in its plane of
+//   incidence; G depends on alpha and eta' = max(eta, 1/eta), from 1.52 (eta' - 1) / (eta' + 1)
+//   for alpha -> 0 (at most 0.975 for alpha <= 0.1, eta' <= 4) to 5.98-6.82 at alpha 1. So
+//   sup f_t is c D_max up to alpha 0.13-0.41 (by eta'), then c D_max G: at least 1.86 c, and
+//   1.90-2.17 c at alpha 1. G is tabulated (roughness_bound.cpp) for eta' <= 4, at most 2% above
+//   the measured supremum; for eta' > 4 the published bound stays. This bound is not monotone in
+//   alpha: past its minimum (alpha 0.38-0.78) it rises again, by up to 8% towards alpha = 1.
+//   The published Smith reflection bound and the V-cavity bounds are already the suprema
+//   (reached at a grazing mirror pair, resp. at normal incidence), so the tight form equals them.
 // * eta is the relative IOR int_ior / ext_ior; the transmission bound is symmetric in
 //   eta <-> 1/eta and infinite for eta == 1 (an index-matched refraction is a delta).
 #pragma once
@@ -66,8 +71,10 @@ float maxValueBound(MicrofacetType type, MaskingModel masking, float alpha, bool
 // Returns 1 if even alpha = 1 exceeds tau (tau < rho_bar(1)) and for an index-matched
 // transmission (eta == 1: no finite alpha bounds it; the dielectric ignores roughness there).
 // tau <= 0 gives 1; tau = +inf gives 0.
-// The tight form's inverse is closed too (GGX/Smith refraction: alpha = sqrt(c / (pi tau)) up to
-// the margin, where that is at most 1/2, else 1).
+// The tight form's inverse is closed too; it returns the least alpha from which on the bound
+// stays <= tau, i.e. with rho_bar(alpha') <= tau for every alpha' in [alpha, 1] (the Beckmann
+// refraction bound is not monotone: 1 wherever rho_bar(1) > tau). GGX/Smith refraction: alpha =
+// sqrt(c / (pi tau)) up to the margin, where that is at most 1/2, else 1.
 float alphaForBound(MicrofacetType type, MaskingModel masking, float tau, bool transmission, float eta,
                     BoundForm form = BoundForm::Published);
 

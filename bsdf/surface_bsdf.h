@@ -65,7 +65,7 @@ public:
         const Vec3 n = frame_.n;
         const float woN = glm::dot(woW, n), wiN = glm::dot(wiW, n);
         if (!consistent(glm::dot(woW, ng_), woN) || !consistent(glm::dot(wiW, ng_), wiN))
-            return PairGeometry{0.f, 0.f, 0.f, PairGeometry::Lobe::Zero};
+            return PairGeometry{0.f, 0.f, 0.f, PairGeometry::Lobe::Zero, false};
         return bxdf_->pairGeometry(Vec3(glm::dot(woW, frame_.s), glm::dot(woW, frame_.t), woN),
                                    Vec3(glm::dot(wiW, frame_.s), glm::dot(wiW, frame_.t), wiN));
     }

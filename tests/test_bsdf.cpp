@@ -597,7 +597,8 @@ TEST_CASE("regularisation request (minimum alpha) and delta threshold", "[bsdf]"
 
 // A bound tau is resolved inside each lobe: alpha_hat = alphaForBound of the lobe's own
 // distribution, masking, reflection or transmission and eta (the caller knows none of them).
-// (each bound form; without the compensation, which only changes smooth lobes' alpha_hat)
+// (each bound form; without the compensation, which changes smooth lobes' and glossy conductors'
+// alpha_hat and glossy conductors' values)
 TEST_CASE("regularisation request (bound tau) is resolved per lobe", "[bsdf]") {
   for (BoundForm form : {BoundForm::Published, BoundForm::Tight}) {
     const float tau = 20.f;
@@ -608,7 +609,11 @@ TEST_CASE("regularisation request (bound tau) is resolved per lobe", "[bsdf]") {
         r.compensate = false;
         return BsdfContext(mode, r);
     };
-    auto withMin = [](TransportMode mode, float a) { return BsdfContext(mode, minAlphaRequest(Roughness{a, a})); };
+    auto withMin = [](TransportMode mode, float a) {
+        RegularizationRequest r = minAlphaRequest(Roughness{a, a});
+        r.compensate = false;
+        return BsdfContext(mode, r);
+    };
     auto same = [](const BsdfEval& x, const BsdfEval& y) {
         return x.f == y.f && x.pdfFwd.value == y.pdfFwd.value && x.pdfRev.value == y.pdfRev.value;
     };

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bsdf/bsdf.h"
+#include "bsdf/energy_compensation.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
 #include "bsdf/surface_bsdf.h"
@@ -52,17 +53,23 @@ std::vector<Model> roughModels() {
 
 std::vector<RegularizationRequest> requests() {
     std::vector<RegularizationRequest> r;
-    for (float g : {0.002f, 0.08f, 0.5f, 1.f}) {
-        RegularizationRequest q;
-        q.minAlpha = {g, g};
-        r.push_back(q);
-    }
-    for (float tau : {0.5f, 30.f, 1000.f}) {
-        RegularizationRequest q;
-        q.tau = tau;
-        r.push_back(q);
-        q.minAlpha = {0.1f, 0.1f};  // both (OPSR with JG19's bound)
-        r.push_back(q);
+    // (each with and without the energy compensation of the lobe made rougher: a compensated
+    // lobe's ratio has the factor E(alpha_0) / E(alpha) at the light side, energy_compensation.h)
+    for (bool compensate : {true, false}) {
+        for (float g : {0.002f, 0.08f, 0.5f, 1.f}) {
+            RegularizationRequest q;
+            q.minAlpha = {g, g};
+            q.compensate = compensate;
+            r.push_back(q);
+        }
+        for (float tau : {0.5f, 30.f, 1000.f}) {
+            RegularizationRequest q;
+            q.tau = tau;
+            q.compensate = compensate;
+            r.push_back(q);
+            q.minAlpha = {0.1f, 0.1f};  // both (OPSR with JG19's bound)
+            r.push_back(q);
+        }
     }
     return r;
 }
@@ -97,7 +104,7 @@ TEST_CASE("requestRatio equals the quotient of the two evaluations for every rou
                          TransportMode mode, const PairGeometry& g) {
         const float plain = channelSum(b.eval(wo, wi, BsdfContext(mode)).f);
         const float hat = channelSum(b.eval(wo, wi, BsdfContext(mode, req)).f);
-        const float r = b.requestRatio(g, req);
+        const float r = b.requestRatio(g, BsdfContext(mode, req));
         INFO("plain " << plain << " hat " << hat << " ratio " << r);
         if (g.lobe == PairGeometry::Lobe::Zero) {
             // Claimed 0 under every request: the plain and the request's values are 0.
@@ -157,8 +164,10 @@ TEST_CASE("requestRatio is exactly 1 where the request changes no alpha") {
     below.minAlpha = {0.2f, 0.2f};
     const PairGeometry g = b->pairGeometry(Vec3(0.3f, 0.1f, 0.95f), Vec3(-0.2f, 0.4f, 0.89f));
     REQUIRE(g.lobe == PairGeometry::Lobe::Reflection);
-    CHECK(b->requestRatio(g, below) == 1.f);
-    CHECK(b->requestRatio(g, RegularizationRequest{}) == 1.f);
+    for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
+        CHECK(b->requestRatio(g, BsdfContext(mode, below)) == 1.f);
+        CHECK(b->requestRatio(g, BsdfContext(mode)) == 1.f);
+    }
 }
 
 TEST_CASE("requestRatioBound bounds requestRatio over every pair and is approached in the tails") {
@@ -170,10 +179,10 @@ TEST_CASE("requestRatioBound bounds requestRatio over every pair and is approach
     Rng rng(31, 7);
     int bounded = 0, unbounded = 0;
     float closest = 0.f;
-    forEachPair(rng, [&](const Bxdf& b, const RegularizationRequest& req, const Vec3&, const Vec3&, TransportMode,
+    forEachPair(rng, [&](const Bxdf& b, const RegularizationRequest& req, const Vec3&, const Vec3&, TransportMode mode,
                          const PairGeometry& g) {
         const float bound = b.requestRatioBound(req);
-        const float r = b.requestRatio(g, req);
+        const float r = b.requestRatio(g, BsdfContext(mode, req));
         INFO("ratio " << r << " bound " << bound);
         if (!(bound < kInf)) {
             ++unbounded;
@@ -186,9 +195,11 @@ TEST_CASE("requestRatioBound bounds requestRatio over every pair and is approach
     CHECK(bounded > 30000);
     CHECK(unbounded > 30000);
     CHECK(closest > 0.9f);
-    // By hand: (b / a)^2 for GGX, +inf for Beckmann made rougher, 1 where nothing changes.
+    // By hand: (b / a)^2 for GGX, +inf for Beckmann made rougher, 1 where nothing changes
+    // (uncompensated; compensated: times the lobe's K, below).
     RegularizationRequest to08;
     to08.minAlpha = {0.08f, 0.08f};
+    to08.compensate = false;
     for (MaskingModel k : {MaskingModel::Smith, MaskingModel::VCavity}) {
         CHECK(makeRoughConductor(MicrofacetType::GGX, 0.05f, 0.05f, kCuEta, kCuK, Color(1.f), k)->requestRatioBound(to08) ==
               Approx(2.56f).epsilon(1e-5));
@@ -202,6 +213,13 @@ TEST_CASE("requestRatioBound bounds requestRatio over every pair and is approach
     }
     CHECK(makeRoughConductor(MicrofacetType::Beckmann, 0.3f, 0.3f, kCuEta, kCuK, Color(1.f))->requestRatioBound(to08) ==
           1.f);
+    // Compensated (the default): D's quotient times the lobe's K, the sup of E(alpha_0) / E(alpha).
+    RegularizationRequest to08c = to08;
+    to08c.compensate = true;
+    const LobeCompensation k05(MicrofacetLobe{MicrofacetType::GGX, MaskingModel::Smith, 0.05f, 0.05f}, 1.f, false);
+    REQUIRE(k05.boundFactor(false, 0.08f) > 1.f);
+    CHECK(makeRoughConductor(MicrofacetType::GGX, 0.05f, 0.05f, kCuEta, kCuK, Color(1.f))->requestRatioBound(to08c) ==
+          Approx(2.56f * k05.boundFactor(false, 0.08f)).epsilon(1e-5));
     CHECK(makeRoughConductor(MicrofacetType::GGX, 0.3f, 0.3f, kCuEta, kCuK, Color(1.f))
               ->requestRatioBound(RegularizationRequest{}) == 1.f);
     // No bound the models know: anisotropic, smooth (a delta made rough), Lambert, index-matched.
@@ -213,6 +231,7 @@ TEST_CASE("requestRatioBound bounds requestRatio over every pair and is approach
     // JG19's bound resolves to its own alpha per lobe: the dielectric's is the larger of the two.
     RegularizationRequest tau;
     tau.tau = 30.f;
+    tau.compensate = false;
     const BxdfPtr glass = makeRoughDielectric(MicrofacetType::GGX, 0.01f, 0.01f, 1.5f);
     // (the request's bound form: tight by default)
     const float aR = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, 30.f, false, 1.5f, BoundForm::Tight);
@@ -241,8 +260,9 @@ TEST_CASE("SurfaceBsdf's pairGeometry is the local one, and Zero where the norma
     const SurfaceBsdf s(b.get(), frame, n);
     const PairGeometry world = s.pairGeometry(wo, wi), local = b->pairGeometry(glm::normalize(woL), glm::normalize(wiL));
     REQUIRE(world.lobe == PairGeometry::Lobe::Transmission);
-    CHECK(b->requestRatio(world, req) == Approx(b->requestRatio(local, req)).epsilon(1e-5));
-    CHECK(b->requestRatio(world, req) ==
+    const BsdfContext ctx(TransportMode::Radiance, req);
+    CHECK(b->requestRatio(world, ctx) == Approx(b->requestRatio(local, ctx)).epsilon(1e-5));
+    CHECK(b->requestRatio(world, ctx) ==
           Approx(channelSum(s.eval(wo, wi, BsdfContext(TransportMode::Radiance, req)).f) /
                  channelSum(s.eval(wo, wi, BsdfContext(TransportMode::Radiance)).f))
               .epsilon(1e-4));

@@ -206,7 +206,7 @@ TEST_CASE("valueBound: smooth conductor and dielectric are +inf until a request 
                          b == diel ? maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, 0.2f, true, 1.5f, tight) : 0.f);
             CHECK(b->valueBound(BsdfContext(mode, rm)) == expectedMin);
             rm.compensate = true;
-            const SmoothLobeCompensation comp(b == diel ? 1.5f : 1.f, b == diel);
+            const LobeCompensation comp(b == diel ? 1.5f : 1.f, b == diel);
             const float expectedCompensated =
                 std::max(comp.valueBound(false, 0.2f, tight), b == diel ? comp.valueBound(true, 0.2f, tight) : 0.f);
             CHECK(b->valueBound(BsdfContext(mode, rm)) == expectedCompensated);
@@ -346,13 +346,15 @@ TEST_CASE("valueBound bounds eval of rough Smith conductors and dielectrics over
             if (!(ctx.reg.tau < kInf)) continue;
             // A request only widens lobes.
             CHECK(bound <= plain);
-            // alpha_hat(tau) of each lobe. alphaForBound returns 1 where tau < rho_bar(1): no alpha
-            // in (0, 1] honours tau (e.g. Beckmann/Smith refraction, whose rho_bar_t(1) is 53 for
-            // eta 1.5 and 96 for eta 1.33, above tau = 30); the lobe then uses alpha 1 and its
-            // bound rho_bar(1) exceeds tau, truthfully.
+            // alpha_hat(tau) of each lobe, in the request's bound form. alphaForBound returns 1
+            // where tau < rho_bar(1): no alpha in (0, 1] honours tau (e.g. published Beckmann/Smith
+            // refraction, whose rho_bar_t(1) is 53 for eta 1.5 and 96 for eta 1.33, above tau = 30);
+            // the lobe then uses alpha 1 and its bound rho_bar(1) exceeds tau, truthfully.
             const float aMin = std::min(m.au, m.av);
-            const float ahR = alphaForBound(m.dist, MaskingModel::Smith, ctx.reg.tau, false, m.eta);
-            const float ahT = m.dielectric ? alphaForBound(m.dist, MaskingModel::Smith, ctx.reg.tau, true, m.eta) : 0.f;
+            const BoundForm form = ctx.reg.bound;
+            const float ahR = alphaForBound(m.dist, MaskingModel::Smith, ctx.reg.tau, false, m.eta, form);
+            const float ahT =
+                m.dielectric ? alphaForBound(m.dist, MaskingModel::Smith, ctx.reg.tau, true, m.eta, form) : 0.f;
             INFO("alpha_hat reflection=" << ahR << " transmission=" << ahT);
             const bool reachable = ahR < 1.f && ahT < 1.f;
             const bool above = ahR > aMin && (!m.dielectric || ahT > aMin);

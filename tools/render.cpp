@@ -158,7 +158,7 @@ std::string whyNotWritable(const fs::path& out) {
 // compensated), computed by the renderer's own functions.
 std::string regTauTable() {
     std::string out = "alpha of smooth glass (eta 1.5) / a mirror under tau_N (tight bound, compensated):";
-    const SmoothLobeCompensation glass(1.5f, true), mirror(1.f, false);  // (built once: a few ms each)
+    const LobeCompensation glass(1.5f, true), mirror(1.f, false);  // (built once: a few ms each)
     for (double tau0 : {30.0, 1000.0}) {
         out += fmt::format(" tau_0 {}:", tau0);
         for (uint64_t n : {uint64_t(1), uint64_t(256), uint64_t(65536)}) {

@@ -239,7 +239,7 @@ void Opsr::walkRatio(PathVertex& v, const Vec3& wi) const {
     // side's and the other side's (densitiesBidirectional), then need no evaluation.
     v.regState.opsr.pair = b.pairGeometry(v.wo, wi);
     if (v.regState.opsr.pair.available()) {
-        if (g >= 0.f) v.regState.ratio = v.bxdf->requestRatio(v.regState.opsr.pair, contextFor(mode, g).reg);
+        if (g >= 0.f) v.regState.ratio = v.bxdf->requestRatio(v.regState.opsr.pair, contextFor(mode, g));
         return;
     }
     const Color plain = b.eval(v.wo, wi, BsdfContext(mode).valueOnlyCopy()).f;
@@ -508,10 +508,11 @@ void Opsr::densitiesBidirectional(const Technique& tech, PathPdfs& P) const {
     auto otherSide = [&](const PathVertex& v, int j, End side, bool onLightWalk, bool onCameraWalk) -> float {
         const float g = requestFrom(tech, j, side);
         if (g < 0.f) return 1.f;
-        // (the ratio does not depend on the mode or the order of the pair: PairGeometry)
+        // (in the walk's mode and directions, as its pair was taken: a compensated lobe's ratio
+        // depends on which of the two is the light side, energy_compensation.h)
         if (onLightWalk || onCameraWalk) {
-            if (v.regState.opsr.pair.available()) return v.bxdf->requestRatio(v.regState.opsr.pair, contextFor(modeAt(side), g).reg);
             const TransportMode mode = onLightWalk ? TransportMode::Importance : TransportMode::Radiance;
+            if (v.regState.opsr.pair.available()) return v.bxdf->requestRatio(v.regState.opsr.pair, contextFor(mode, g));
             const Vec3 wi = x.direction(j, onLightWalk ? j + 1 : j - 1);
             const Color hat = v.bsdf().eval(v.wo, wi, contextFor(mode, g).valueOnlyCopy()).f;
             return detail::regularisedRatio(hat.x + hat.y + hat.z, v.regState.rhoBar);

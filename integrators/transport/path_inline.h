@@ -28,7 +28,7 @@ inline float regularisedRatio(const Color& hat, const Color& plain) {
 // The same for b between wo and wi under ctx's request: from the pair's geometry where the BSDF
 // has that form (bsdf.h, PairGeometry: no evaluation), else from its two value-only evaluations.
 inline float regularisedRatioAt(const SurfaceBsdf& b, const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) {
-    if (const PairGeometry pair = b.pairGeometry(wo, wi); pair.available()) return b.bxdf().requestRatio(pair, ctx.reg);
+    if (const PairGeometry pair = b.pairGeometry(wo, wi); pair.available()) return b.bxdf().requestRatio(pair, ctx);
     return regularisedRatio(b.eval(wo, wi, ctx.valueOnlyCopy()).f, b.eval(wo, wi, plainContext(ctx.mode).valueOnlyCopy()).f);
 }
 
@@ -110,7 +110,7 @@ template <bool mayRequest = true>
         // (D G1(wo)) (Bxdf::requestPdfRatio).
         if (!v.deltaBsdf && !isBlack(plain)) {
             if (const PairGeometry pair = v.bsdf().pairGeometry(v.wo, wi); pair.available()) {
-                const float r = v.bxdf->requestRatio(pair, ctx.reg);
+                const float r = v.bxdf->requestRatio(pair, ctx);
                 const float p = ctx.valueOnly ? 1.f : v.bxdf->requestPdfRatio(pair, ctx.reg);
                 if (r < kInf && p < kInf) {
                     e.f = plain * r;
