@@ -5,6 +5,8 @@
 // the class plain BPT cannot render, and the same integrand as the path tracer where both
 // regularise the same vertex.
 #include <catch2/catch.hpp>
+
+#include "bsdf/energy_compensation.h"
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -24,8 +26,9 @@ using namespace lt::test;
 namespace {
 
 // (tau > 0: with JG19's fixed bound tau, --reg jg19,opsr: opsr.h (6))
-reg::Opsr opsrFor(TechniqueSet set, bool merging, float gamma, double tau = 0.0) {
+reg::Opsr opsrFor(TechniqueSet set, bool merging, float gamma, double tau = 0.0, bool compensate = true) {
     reg::OpsrSettings o;
+    o.compensate = compensate;
     o.attenuation.gamma = gamma;
     o.bidirectional = true;
     o.boundTau0 = tau;
@@ -579,14 +582,20 @@ TEST_CASE("OPSR with JG19's bound: each lobe takes the larger of the accumulated
     // which changes nothing, so the bound alone. The bound's alpha_hat(tau) for GGX reflection is
     // (pi tau)^(-1/4): 0.18 at tau 300 (above 0.05, below 0.335), 0.57 at tau 3 (above both).
     // The request at each end must evaluate the BSDF as the material with alpha' = max(alpha, g,
-    // alpha_hat) does.
+    // alpha_hat) does (uncompensated; compensated, alpha_hat is the compensated lobe's and the
+    // value is that material's times E(alpha) / E(alpha') at the light side, energy_compensation.h).
     const BxdfPtr glossy = makeRoughConductor(MicrofacetType::GGX, 0.05f, 0.05f, Color(0.2f), Color(3.f), Color(1.f));
     const BxdfPtr diffuse = makeDiffuse(Color(0.5f));
     Light light;
     light.type = LightType::Point;
-    for (const double tau : {300.0, 3.0}) {
-        const reg::Opsr op = opsrFor(TechniqueSet::Bidirectional, false, 0.3f, tau);
-        const float alphaHat = alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, float(tau), false, 1.f);
+    const LobeCompensation comp(MicrofacetLobe{MicrofacetType::GGX, MaskingModel::Smith, 0.05f, 0.05f}, 1.f, false);
+    for (const double tau : {300.0, 3.0})
+      for (bool compensate : {false, true}) {
+        const reg::Opsr op = opsrFor(TechniqueSet::Bidirectional, false, 0.3f, tau, compensate);
+        const float alphaHat = compensate ? comp.alphaFor(float(tau), false, BoundForm::Tight)
+                                          : alphaForBound(MicrofacetType::GGX, MaskingModel::Smith, float(tau), false,
+                                                          1.f, BoundForm::Tight);
+        INFO("compensate " << compensate);
         INFO("tau " << tau << ": alpha_hat " << alphaHat);
         HandPath h = onAxis(light, {{1.f, diffuse.get()}, {2.f, glossy.get()}});
         // Light tracing (s = 3) regularises x2 with the light side's g; NEE (s = 2) with the camera
@@ -602,11 +611,14 @@ TEST_CASE("OPSR with JG19's bound: each lobe takes the larger of the accumulated
                 makeRoughConductor(MicrofacetType::GGX, expected, expected, Color(0.2f), Color(3.f), Color(1.f));
             const Vec3 wo = glm::normalize(Vec3(0.3f, 0.f, 1.f)), wi = glm::normalize(Vec3(-0.1f, 0.2f, 1.f));
             const BsdfContext ctx = op.context(t, s == 3 ? End::Light : End::Camera);
+            const float muL = ctx.mode == TransportMode::Radiance ? wi.z : wo.z;
+            const float scale = compensate ? comp.reflectionScale(muL, expected) : 1.f;
             const Color got = glossy->eval(wo, wi, ctx).f, want = reference->eval(wo, wi, BsdfContext(ctx.mode)).f;
-            INFO("s " << s << ": alpha' " << expected);
-            CHECK(got.x == Approx(want.x).epsilon(1e-5));
+            INFO("s " << s << ": alpha' " << expected << ", compensation " << scale);
+            CHECK(got.x == Approx(want.x * scale).epsilon(1e-5));
+            if (compensate && expected > 0.05f) CHECK(scale > 1.f);
         }
-    }
+      }
 }
 
 TEST_CASE("OPSR with JG19's bound in BPT counts no light twice", "[opsr][jg19][bidirectional][render]") {
