@@ -18,16 +18,17 @@ public:
     ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
                   const Color& k, const Color& specR)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {
-        if (!rough || au == av) comp_.emplace(lobe_, 1.f, false);  // (energy_compensation.h: isotropic lobes)
+        if (!rough || au == av) comp_.emplace(lobe_);  // (energy_compensation.h: smooth or isotropic)
         continuation_ = continuationOf(specR);  // the Fresnel factor is <= 1 on top
         cacheBounds();
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         if (!rough_ && ctx.reg.cone > 0.f) return evalCone(wo, wi, ctx.reg.cone);  // (whatever else is asked)
-        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
+        const Request q = resolveFor(ctx.reg);
+        const MicrofacetLobe::Resolved& a = q.alphas;
         if (a.delta) return BsdfEval{};
-        if (!compensated(ctx.reg, a)) return evalRough(lobe_.microfacet(a), wo, wi, ctx.valueOnly);
+        if (!q.compensated) return evalRough(lobe_.microfacet(a), wo, wi, ctx.valueOnly);
         if (!rough_) return evalCompensated(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
         BsdfEval e = evalRough(lobe_.microfacet(a), wo, wi, ctx.valueOnly);
         e.f *= comp_->reflectionScale(lightSide(wo, wi, ctx.mode).z, a.u);
@@ -36,7 +37,8 @@ public:
 
     bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
         if (!(wo.z > 0.f)) return false;
-        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
+        const Request q = resolveFor(ctx.reg);
+        const MicrofacetLobe::Resolved& a = q.alphas;
         if (a.delta) {
             out.wi = Vec3(-wo.x, -wo.y, wo.z);
             out.weight = specR_ * fresnelConductor(wo.z, eta_, k_);
@@ -67,12 +69,12 @@ public:
         out.wi = wi;
         // f cos / pdf = F D G2 / (4 cos_o) / (G1(wo) D / (4 cos_o)) = F G2 / G1(wo): no overflow.
         const float ratio = mf.G2(wo, wi, g1, mf.G1(wi, m)) / g1;
-        if (compensated(ctx.reg, a) && !rough_) {  // (energy_compensation.h: F and 1 / E at the light side)
+        if (q.compensated && !rough_) {  // (energy_compensation.h: F and 1 / E at the light side)
             const float muL = lightSide(wo, wi, ctx.mode).z;
             out.weight = specR_ * fresnelConductor(muL, eta_, k_) * (comp_->reflectionScale(muL, 0.5f * (a.u + a.v)) * ratio);
         } else {
             out.weight = specR_ * fresnelConductor(wom, eta_, k_) * ratio;
-            if (compensated(ctx.reg, a)) out.weight *= comp_->reflectionScale(lightSide(wo, wi, ctx.mode).z, a.u);
+            if (q.compensated) out.weight *= comp_->reflectionScale(lightSide(wo, wi, ctx.mode).z, a.u);
         }
         out.pdfFwd = SolidAnglePdf(pdfFwd);
         out.pdfRev = SolidAnglePdf(r.reflectDensity(wi, r.gI));
@@ -83,15 +85,15 @@ public:
 
     uint32_t flags() const override { return rough_ ? (kReflection | kGlossy) : (kReflection | kDelta); }
     bool deltaUnder(const BsdfContext& ctx) const override {
-        return !(!rough_ && ctx.reg.cone > 0.f) && resolveFor(ctx.reg).delta;
+        return !(!rough_ && ctx.reg.cone > 0.f) && resolveFor(ctx.reg).alphas.delta;
     }
     float valueBound(const BsdfContext& ctx) const override {
         if (!rough_ && ctx.reg.cone > 0.f) return 1.f / coneSolidAngle(ctx.reg.cone);  // the cone's 1 / Omega
-        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
-        if (a.delta) return kInf;
+        const Request q = resolveFor(ctx.reg);
+        if (q.alphas.delta) return kInf;
         // (Microfacet clamps each alpha to kMinAlpha; the smaller axis bounds an anisotropic lobe.)
-        const float alpha = std::max(std::min(a.u, a.v), kMinAlpha);
-        if (compensated(ctx.reg, a)) return comp_->valueBound(false, alpha, ctx.reg.bound);
+        const float alpha = std::max(std::min(q.alphas.u, q.alphas.v), kMinAlpha);
+        if (q.compensated) return comp_->valueBound(false, alpha, ctx.reg.bound);
         return maxValueBound(lobe_.type, lobe_.masking, alpha, false, 1.f, ctx.reg.bound);
     }
     // (one-sided: a pair below the surface is 0 under every request)
@@ -101,40 +103,41 @@ public:
         return microfacetPairGeometry(wo, wi, 1.f, lobe_.masking);
     }
     float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override {
-        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg);
-        const float ratio = microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, a.u, g);
-        if (!rough_ || !compensated(ctx.reg, a) || g.lobe != PairGeometry::Lobe::Reflection) return ratio;
-        return ratio * comp_->reflectionScale(ctx.mode == TransportMode::Radiance ? g.cosI() : g.cosO(), a.u);
+        const Request q = resolveFor(ctx.reg);
+        const float ratio = microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, q.alphas.u, g);
+        if (!rough_ || !q.compensated || g.lobe != PairGeometry::Lobe::Reflection) return ratio;
+        return ratio * comp_->reflectionScale(ctx.mode == TransportMode::Radiance ? g.cosI() : g.cosO(), q.alphas.u);
     }
     float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
-        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(r).u, g, true);
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(r).alphas.u, g, true);
     }
     float requestRatioBound(const RegularizationRequest& r) const override {
         if (!rough_ || lobe_.alphaU != lobe_.alphaV) return kInf;
-        const MicrofacetLobe::Resolved a = resolveFor(r);
-        const float bound = microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, a.u);
-        return compensated(r, a) ? bound * comp_->boundFactor(false, a.u) : bound;
+        const Request q = resolveFor(r);
+        const float bound = microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, q.alphas.u);
+        return q.compensated ? bound * comp_->boundFactor(false, q.alphas.u) : bound;
     }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
     std::string name() const override { return rough_ ? "roughconductor" : "conductor"; }
 
 private:
-    // Whether a request is resolved with the compensation (energy_compensation.h: where it can
-    // keep the value under the request's bound).
-    bool compensates(const RegularizationRequest& r) const { return r.compensate && comp_ && comp_->meets(r, false); }
-    // Whether the lobe a request resolved to (a) is compensated: a smooth conductor made rough, a
-    // glossy isotropic one made rougher.
-    bool compensated(const RegularizationRequest& r, const MicrofacetLobe::Resolved& a) const {
-        return compensates(r) && (!rough_ || a.u != lobe_.alphaU);
+    // A request resolved: the alphas, and whether the lobe is compensated (energy_compensation.h):
+    // a smooth conductor made rough or a glossy isotropic one made rougher, where the compensation
+    // can keep the value under the request's bound (a compensated lobe's bound is its own, alphaFor).
+    struct Request {
+        MicrofacetLobe::Resolved alphas;
+        bool compensated = false;
+    };
+    Request resolveFor(const RegularizationRequest& r) const {
+        if (!(r.compensate && comp_ && comp_->meets(r, false))) return {lobe_.resolve(r, false, 1.f), false};
+        Request q{comp_->resolve(lobe_, r, false), false};
+        q.compensated = !rough_ || q.alphas.u != lobe_.alphaU;
+        return q;
     }
     // The light side of a pair (energy_compensation.h): wi for Radiance, wo for Importance.
     static const Vec3& lightSide(const Vec3& wo, const Vec3& wi, TransportMode mode) {
         return mode == TransportMode::Radiance ? wi : wo;
-    }
-    // The request resolved; a compensated lobe's bound is its own (alphaFor).
-    MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r) const {
-        return compensates(r) ? comp_->resolve(lobe_, r, false) : lobe_.resolve(r, false, 1.f);
     }
     // specR F(mu_l) f1 / E_R(mu_l): the mirror's weight F spread over the rough lobe, l the light
     // side (wi for Radiance, wo for Importance).

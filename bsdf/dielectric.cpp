@@ -37,9 +37,10 @@ public:
             return evalCone(wo, wi, ctx.reg.cone, ctx.mode);
         if (eta_ == 1.f) return BsdfEval{};
         // The request resolved for the lobe of this pair (reflection or transmission).
-        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg, !(wo.z * wi.z > 0.f));
+        const bool comp = compensated(ctx.reg);
+        const MicrofacetLobe::Resolved a = resolveFor(ctx.reg, !(wo.z * wi.z > 0.f), comp);
         if (a.delta) return BsdfEval{};
-        if (compensated(ctx.reg)) return evalCompensated(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
+        if (comp) return evalCompensated(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
         return evalRough(lobe_.microfacet(a), wo, wi, ctx.mode, ctx.valueOnly);
     }
 
@@ -61,7 +62,8 @@ public:
         // a request is resolved with the larger alpha_hat of the two lobes' bounds, and the
         // returned pdfs and weight are those of that alpha. (eval resolves per pair; the walks
         // never sample a regularised BSDF, JG19 Sec. 3.)
-        const MicrofacetLobe::Resolved a = resolveBoth(ctx.reg);
+        const bool macro = compensated(ctx.reg);  // (the compensated lobe: below)
+        const MicrofacetLobe::Resolved a = resolveBoth(ctx.reg, macro);
         if (a.delta) {
             float cosT;
             const float F = fresnelDielectric(o.z, etaRel, &cosT);
@@ -89,7 +91,6 @@ public:
         if (!(om > 0.f)) return false;
         // (a compensated lobe chooses by the macro Fresnel of wo, the weight its value spreads: the
         // sample weight is then G2 / G1 / E, with no 1 / F(facet) tail)
-        const bool macro = compensated(ctx.reg);
         const float F = macro ? fresnelDielectric(o.z, etaRel) : fresnelDielectric(om, etaRel);
         Vec3 i;
         bool reflect = uSel < F;
@@ -141,20 +142,22 @@ public:
         return microfacetPairGeometry(wo, wi, eta_, lobe_.masking);
     }
     // (the request resolved for the pair's lobe, as eval resolves it)
-    // (a glossy lobe is never compensated: the pair's ratio is D' G2' / (D G2) alone)
+    // (pair geometry is a glossy lobe's, which is never compensated: the ratios are D' G2' / (D G2)
+    // and its density's alone)
     float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override {
         const bool transmission = g.lobe == PairGeometry::Lobe::Transmission;
-        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(ctx.reg, transmission).u, g);
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(ctx.reg, transmission, false).u, g);
     }
     float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
         const bool transmission = g.lobe == PairGeometry::Lobe::Transmission;
-        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(r, transmission).u, g, true);
+        return microfacetAlphaRatio(lobe_.type, lobe_.masking, lobe_.alphaU, resolveFor(r, transmission, false).u, g,
+                                    true);
     }
     // (both lobes: the request resolves to its own alpha for each)
     float requestRatioBound(const RegularizationRequest& r) const override {
         if (!rough_ || eta_ == 1.f || lobe_.alphaU != lobe_.alphaV) return kInf;
-        return std::max(microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, resolveFor(r, false).u),
-                        microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, resolveFor(r, true).u));
+        return std::max(microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, resolveFor(r, false, false).u),
+                        microfacetAlphaRatioBound(lobe_.type, lobe_.alphaU, resolveFor(r, true, false).u));
     }
     float roughness() const override { return rough_ ? scalarRoughness(lobe_.alphaU, lobe_.alphaV) : 0.f; }
     Roughness alpha() const override { return {lobe_.alphaU, lobe_.alphaV}; }
@@ -162,7 +165,7 @@ public:
     // Rough as soon as either lobe's resolved alpha is (sample's resolveBoth).
     bool deltaUnder(const BsdfContext& ctx) const override {
         if (ctx.reg.cone > 0.f && (eta_ == 1.f || !rough_)) return false;  // the cone (evalCone)
-        return eta_ == 1.f || resolveBoth(ctx.reg).delta;
+        return eta_ == 1.f || resolveBoth(ctx.reg, compensated(ctx.reg)).delta;
     }
     // The larger of the reflection and transmission bounds, each with the alphas eval resolves
     // for its lobe. +inf when both are still deltas; a reflection lobe still a delta beside a
@@ -170,12 +173,13 @@ public:
     float valueBound(const BsdfContext& ctx) const override {
         if (ctx.reg.cone > 0.f && (eta_ == 1.f || !rough_)) return 1.f / coneSolidAngle(ctx.reg.cone);  // 1 / Omega
         if (eta_ == 1.f) return kInf;
+        const bool comp = compensated(ctx.reg);
         float bound = -1.f;
         for (bool transmission : {false, true}) {
-            const MicrofacetLobe::Resolved a = resolveFor(ctx.reg, transmission);
+            const MicrofacetLobe::Resolved a = resolveFor(ctx.reg, transmission, comp);
             if (a.delta) continue;
             const float alpha = std::max(std::min(a.u, a.v), kMinAlpha);
-            bound = std::max(bound, compensated(ctx.reg)
+            bound = std::max(bound, comp
                                         ? comp_->valueBound(transmission, alpha, ctx.reg.bound)
                                         : maxValueBound(lobe_.type, lobe_.masking, alpha, transmission, eta_, ctx.reg.bound));
         }
@@ -185,8 +189,8 @@ public:
 private:
     // The request resolved for both lobes, per axis the larger alpha (which lobe's bound gives it
     // depends on eta, alpha and the bound's form).
-    MicrofacetLobe::Resolved resolveBoth(const RegularizationRequest& r) const {
-        const MicrofacetLobe::Resolved t = resolveFor(r, true), q = resolveFor(r, false);
+    MicrofacetLobe::Resolved resolveBoth(const RegularizationRequest& r, bool comp) const {
+        const MicrofacetLobe::Resolved t = resolveFor(r, true, comp), q = resolveFor(r, false, comp);
         return {std::max(t.u, q.u), std::max(t.v, q.v), t.delta && q.delta};
     }
     // Whether a request makes this smooth interface a compensated rough lobe (energy_compensation.h:
@@ -196,9 +200,10 @@ private:
     bool compensated(const RegularizationRequest& r) const {
         return r.compensate && comp_ && comp_->meets(r, false) && comp_->meets(r, true);
     }
-    // The request resolved for one lobe; a compensated lobe's bound is its own (alphaFor).
-    MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r, bool transmission) const {
-        return compensated(r) ? comp_->resolve(lobe_, r, transmission) : lobe_.resolve(r, transmission, eta_);
+    // The request resolved for one lobe, comp = compensated(r) (asked once per call); a compensated
+    // lobe's bound is its own (alphaFor).
+    MicrofacetLobe::Resolved resolveFor(const RegularizationRequest& r, bool transmission, bool comp) const {
+        return comp ? comp_->resolve(lobe_, r, transmission) : lobe_.resolve(r, transmission, eta_);
     }
 
     // The compensated rough lobe of a smooth interface (energy_compensation.h): each lobe's

@@ -36,9 +36,7 @@ float LobeCompensation::reflectionScale(float muL, float alpha) const {
 
 float LobeCompensation::transmissionScale(float muL, float alpha, float etaL) const {
     const float e = transmissionAlbedo(type_, masking_, muL, alpha, etaL);
-    if (!(e > 0.f)) return 0.f;  // (no refraction from l at all: W = 1 - F, resp. E(alpha_0), is 0 there too)
-    if (smooth()) return 1.f / e;
-    return alpha == alpha0_ ? 1.f : transmissionAlbedo(type_, masking_, muL, alpha0_, etaL) / e;
+    return e > 0.f ? 1.f / e : 0.f;  // (no refraction from l at all: W = 1 - F is 0 there too)
 }
 
 LobeCompensation::LobeCompensation(const MicrofacetLobe& lobe, float eta, bool dielectric)
@@ -53,10 +51,10 @@ LobeCompensation::LobeCompensation(const MicrofacetLobe& lobe, float eta, bool d
                 r = std::max(r, reflectionScale(mu, alpha));
                 continue;
             }
-            for (float etaL : {eta, 1.f / eta}) {
-                const float F = smooth() ? fresnelDielectric(mu, etaL) : 0.f;
-                r = std::max(r, (smooth() ? F : 1.f) * reflectionScale(mu, alpha));
-                tr = std::max(tr, (smooth() ? 1.f - F : 1.f) * transmissionScale(mu, alpha, etaL));
+            for (float etaL : {eta, 1.f / eta}) {  // (a smooth dielectric: W = F and 1 - F)
+                const float F = fresnelDielectric(mu, etaL);
+                r = std::max(r, F * reflectionScale(mu, alpha));
+                tr = std::max(tr, (1.f - F) * transmissionScale(mu, alpha, etaL));
             }
         }
         kR_[size_t(k)] = r;

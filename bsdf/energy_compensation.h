@@ -49,18 +49,18 @@ namespace lt {
 
 class LobeCompensation {
 public:
-    // lobe: the material's (alphas 0: a smooth material, compensated as the GGX/Smith lobe it
-    // becomes; else an isotropic glossy conductor's); eta: the smooth dielectric's relative IOR;
-    // conductor: reflection only (a smooth conductor's Fresnel weight is the caller's, at most 1).
-    LobeCompensation(const MicrofacetLobe& lobe, float eta, bool dielectric);
-    // A smooth material's.
+    // A smooth material's, compensated as the GGX/Smith lobe it becomes. eta: the dielectric's
+    // relative IOR; a conductor: reflection only (its Fresnel weight is the caller's, at most 1).
     LobeCompensation(float eta, bool dielectric)
         : LobeCompensation(MicrofacetLobe{MicrofacetType::GGX, MaskingModel::Smith, 0.f, 0.f}, eta, dielectric) {}
+    // A conductor's lobe, smooth (alphas 0) or glossy and isotropic (its own distribution, masking
+    // and alpha_0 = lobe.alphaU).
+    explicit LobeCompensation(const MicrofacetLobe& conductor) : LobeCompensation(conductor, 1.f, false) {}
     bool smooth() const { return !(alpha0_ > 0.f); }
     // What the value of the lobe widened to alpha is multiplied by, at the light-side cosine muL (> 0):
     // smooth 1 / E(muL, alpha) (of W times the Fresnel-free lobe), glossy E(muL, alpha_0) / E(muL, alpha)
-    // (of the material's lobe; exactly 1 at alpha_0); etaL the relative IOR seen from l's side
-    // (refraction only).
+    // (of the material's lobe; exactly 1 at alpha_0). Refraction (a smooth dielectric's): 1 / E_T,
+    // etaL the relative IOR seen from l's side.
     float reflectionScale(float muL, float alpha) const;
     float transmissionScale(float muL, float alpha, float etaL) const;
     // K(alpha) of the lobe (transmission: both sides of the interface); K(alpha) = K(alpha_0) below alpha_0.
@@ -77,6 +77,7 @@ public:
     MicrofacetLobe::Resolved resolve(const MicrofacetLobe& lobe, const RegularizationRequest& r, bool transmission) const;
 
 private:
+    LobeCompensation(const MicrofacetLobe& lobe, float eta, bool dielectric);
     static constexpr int kAlphas = 128;  // K tabulated at alpha_k = (k / (kAlphas - 1))^2, k = 0..kAlphas-1
     std::array<float, kAlphas> kR_{}, kT_{};
     // alphaFor's bisection at tau_k = 10^(kTauMin + k / kTausPerDecade), per form and lobe: the

@@ -588,7 +588,7 @@ TEST_CASE("OPSR with JG19's bound: each lobe takes the larger of the accumulated
     const BxdfPtr diffuse = makeDiffuse(Color(0.5f));
     Light light;
     light.type = LightType::Point;
-    const LobeCompensation comp(MicrofacetLobe{MicrofacetType::GGX, MaskingModel::Smith, 0.05f, 0.05f}, 1.f, false);
+    const LobeCompensation comp(MicrofacetLobe{MicrofacetType::GGX, MaskingModel::Smith, 0.05f, 0.05f});
     for (const double tau : {300.0, 3.0})
       for (bool compensate : {false, true}) {
         const reg::Opsr op = opsrFor(TechniqueSet::Bidirectional, false, 0.3f, tau, compensate);

@@ -216,7 +216,7 @@ TEST_CASE("requestRatioBound bounds requestRatio over every pair and is approach
     // Compensated (the default): D's quotient times the lobe's K, the sup of E(alpha_0) / E(alpha).
     RegularizationRequest to08c = to08;
     to08c.compensate = true;
-    const LobeCompensation k05(MicrofacetLobe{MicrofacetType::GGX, MaskingModel::Smith, 0.05f, 0.05f}, 1.f, false);
+    const LobeCompensation k05(MicrofacetLobe{MicrofacetType::GGX, MaskingModel::Smith, 0.05f, 0.05f});
     REQUIRE(k05.boundFactor(false, 0.08f) > 1.f);
     CHECK(makeRoughConductor(MicrofacetType::GGX, 0.05f, 0.05f, kCuEta, kCuK, Color(1.f))->requestRatioBound(to08c) ==
           Approx(2.56f * k05.boundFactor(false, 0.08f)).epsilon(1e-5));

@@ -251,8 +251,9 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember(kRegBoundNames));
     app.add_option("--reg-energy", regEnergy,
                    "JG19 and OPSR: a smooth mirror or glass made rough keeps the albedo of its delta lobes "
-                   "(compensate, default: F reflected and 1 - F transmitted, as the smooth surface) or loses what "
-                   "the single-scattering rough lobe loses (none)")
+                   "(compensate, default: F reflected and 1 - F transmitted, as the smooth surface; an isotropic "
+                   "rough metal made rougher keeps its own; rough glass is not compensated) or loses what the "
+                   "single-scattering rough lobe loses (none)")
         ->check(CLI::IsMember(kRegEnergyNames));
     double regR0 = -1.0, regLambda = -1.0;
     app.add_option("--reg-r0", regR0,
