@@ -191,6 +191,21 @@ private:
             if (!(I.regTailRr >= 0.0 && I.regTailRr <= kMaxRegTailRr))
                 p.failAt("reg_tail_rr", fmt::format("must be in [0, {:g}] (got {})", kMaxRegTailRr, I.regTailRr));
         }
+        I.guiding = xml::lower(p.getString("guiding", "off"));
+        if (I.guiding != "off" && I.guiding != "radiance" && I.guiding != "variance")
+            p.failAt("guiding", fmt::format("unknown guiding '{}' (supported: off, radiance, variance)", I.guiding));
+        if (p.has("guiding_bsdf_fraction")) {
+            if (p.isString("guiding_bsdf_fraction")) {
+                if (xml::lower(p.getString("guiding_bsdf_fraction", "")) != "learned")
+                    p.failAt("guiding_bsdf_fraction", "must be a number in (0, 1] or the string 'learned'");
+                I.guidingBsdfFraction = -1.0;
+            } else {
+                I.guidingBsdfFraction = p.getFloat("guiding_bsdf_fraction", 0.5f);
+                if (!(I.guidingBsdfFraction > 0.0 && I.guidingBsdfFraction <= 1.0))
+                    p.failAt("guiding_bsdf_fraction",
+                             fmt::format("must be in (0, 1] or 'learned' (got {})", I.guidingBsdfFraction));
+            }
+        }
         // radius/alpha are read for every type (kept in IntegratorDesc for a --integrator override),
         // with a warning where the scene's own integrator does not use them.
         if (p.has("initial_radius") && p.has("radius")) p.failAt("radius", "give either radius or initial_radius");

@@ -106,6 +106,10 @@ struct IntegratorDesc {
     bool regOpsrConsistent = false;      // OPSR's consistent offset (reg_opsr_consistent)
     bool regOpsrAlwaysSample = false;    // OPSR's path tracer: the reference's sample everywhere (reg_opsr_always_sample)
     double regTailRr = -1.0;             // every regulariser: the tail roulette's threshold (reg_tail_rr; < 0: 0.1)
+    // Path guiding of the path tracer (integrator parameters guiding, guiding_bsdf_fraction; the
+    // render CLI's --guiding, --guiding-bsdf-fraction override them).
+    std::string guiding = "off";         // off | radiance | variance
+    double guidingBsdfFraction = 0.5;    // in (0, 1]; < 0: learned
 };
 
 struct SceneDesc {

@@ -79,6 +79,14 @@ struct RenderSettings {
     // Every regulariser: the threshold of the roulette on the connections only it makes
     // (regularizer.h (9); < 0: reg::kDefaultTailThreshold, 0: every connection traced).
     double regTailRr = -1.0;
+    // Path guiding of the path tracer (integrators/guiding/): off | radiance (Mueller et al. 2017's
+    // target) | variance (Rath et al. 2020's, Eq. 21 with the MIS compensation of Eq. 25).
+    std::string guiding = "off";
+    double guidingBsdfFraction = 0.5;  // fixed alpha of the mixture; < 0: learned per leaf (Rath Eq. 27)
+    std::string guidingCombine = "inverse-variance";  // inverse-variance | last
+    double guidingSpatialThreshold = 4000.0;          // c of the spatial split c sqrt(2^k)
+    double guidingMaxMb = 512.0;                      // cap on the trees' memory
+    std::string guidingDump;                          // directory for the learned trees' images ("": none)
 };
 
 // Whether JG19's diffusion heuristic runs for these settings (unset: as the quality heuristic).
@@ -124,6 +132,11 @@ struct RenderStats {
     // their techniques were refused, nothing of them written (regularizer.h (7)).
     uint64_t invalidRegularisation = 0;
     bool interrupted = false;  // RenderSettings::stop was set: spp passes of those asked are done
+    // Path guiding: iterations run (the final one included), passes spent training, and the
+    // SD-tree's spatial nodes, spatial leaves, directional nodes and bytes at the end.
+    int guidingIterations = 0;
+    uint64_t guidingTrainingSpp = 0;
+    uint64_t guidingNodes = 0, guidingLeaves = 0, guidingDirectionalNodes = 0, guidingBytes = 0;
 };
 
 // One iteration/pass of an integrator over the whole image. A pass with index `pass` draws the
@@ -134,8 +147,15 @@ public:
     virtual std::string name() const = 0;
     // Called once per pass before the tiles (light subpaths, light tracing, photon grid).
     virtual void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) {}
+    // Called once per pass after its tiles (path guiding applies the pass's records).
+    virtual void endPass(const Scene& scene, Film& film, uint32_t pass) {}
     // Called once after the last pass (e.g. to write per-strategy images).
     virtual void finish(const Scene& scene, uint64_t passes) {}
+    // The image of the passes done when it is not the film's average (path guiding combines its
+    // iterations); false: the film's.
+    virtual bool develop(Image& out) const { return false; }
+    // Path guiding's statistics (nothing without guiding).
+    virtual void guidingStats(RenderStats& stats) const {}
     // The regulariser's bound tau of the current pass (0: none).
     virtual double regularisationTau() const { return 0.0; }
     // The regulariser's values found not to be numbers so far (regularizer.h (7)).

@@ -9,6 +9,8 @@
 #pragma once
 #include <memory>
 #include <stdexcept>
+#include "integrators/guiding/dump.h"
+#include "integrators/guiding/trainer.h"
 #include "integrators/integrator.h"
 #include "integrators/strategy_images.h"
 
@@ -24,9 +26,15 @@ public:
         else if (s.ptStrategy == "nee") strategy_ = Strategy::Nee;
         else if (s.ptStrategy == "bsdf") strategy_ = Strategy::Bsdf;
         else throw std::invalid_argument("unknown PT strategy '" + s.ptStrategy + "' (supported: mis, nee, bsdf)");
+        guiding_ = guidingSettingsOf(s);
     }
     std::string name() const override { return "pt"; }
     void beginPass(const Scene& scene, Film&, uint32_t pass, WalkStats&) override {
+        if (pass == 0 && guiding_)
+            trainer_ = std::make_unique<guiding::Trainer>(
+                *guiding_, scene.boundsCenter(), scene.boundsRadius() * 1.001f + 1e-4f, scene.camera().width(),
+                scene.camera().height(), uint64_t(std::max(0, settings_.spp)), settings_.timeLimit, settings_.seed);
+        if (trainer_) trainer_->beginPass(pass);
         if (pass == 0 && !settings_.strategyImages.empty())
             strategies_ = std::make_unique<StrategyImages>(scene.camera().width(), scene.camera().height(),
                                                            maxDepthOf(settings_));
@@ -39,8 +47,27 @@ public:
     }
     double regularisationTau() const override { return regularisationTauOf(reg_); }
     uint64_t invalidRegularisation() const override { return invalidRegularisationOf(reg_); }
-    void finish(const Scene&, uint64_t passes) override {
+    void finish(const Scene& scene, uint64_t passes) override {
         if (strategies_) strategies_->write(settings_.strategyImages, passes);
+        if (trainer_ && !settings_.guidingDump.empty()) guiding::dumpGuide(scene, trainer_->tree(), settings_.guidingDump);
+    }
+    void endPass(const Scene&, Film&, uint32_t pass) override {
+        if (trainer_) trainer_->endPass(pass);
+    }
+    bool develop(Image& out) const override {
+        if (!trainer_) return false;
+        out = trainer_->develop();
+        return true;
+    }
+    void guidingStats(RenderStats& st) const override {
+        if (!trainer_) return;
+        st.guidingIterations = trainer_->iterations();
+        st.guidingTrainingSpp = trainer_->trainingPasses();
+        const guiding::SDTree& tree = trainer_->tree();
+        st.guidingNodes = tree.nodeCount();
+        st.guidingLeaves = tree.leafCount();
+        st.guidingDirectionalNodes = tree.directionalNodes();
+        st.guidingBytes = tree.bytes();
     }
 
     void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
@@ -51,13 +78,15 @@ public:
         // pdfs (written before they are read).
         std::array<PathVertex, kMaxPathVertices> z;
         PathPdfs pdfs;
+        guiding::WalkGuide guide;
+        if (trainer_) guide = trainer_->walkGuide();
         for (int y = y0; y < y1; ++y)
             for (int x = x0; x < x1; ++x) {
                 uint32_t pixel = uint32_t(y) * film.width() + x;
                 Rng rng = Rng::forSample(settings_.seed, pixel, pass);
                 Vec2 raster = Vec2(float(x), float(y)) + film.samplePixelOffset(rng.uniform2());
-                Color L = radiance(scene, raster, pixel, rng, maxDepth, z.data(), pdfs, stats);
-                film.addSample(x, y, L);
+                Color L = radiance(scene, raster, pixel, rng, maxDepth, z.data(), pdfs, stats, trainer_ ? &guide : nullptr);
+                if (film.addSample(x, y, L) && trainer_) trainer_->addSample(pixel, L);
                 film.addSampleCount(x, y, 1);
             }
     }
@@ -70,13 +99,20 @@ public:
     // time (within the shared machine's noise) and -2.2% / -1.6%, -2.4% / -1.7% instructions. All kept:
     // none touches the regulariser's hooks, and without the last two PT would run ~2% more
     // instructions than before the seam.
+    // (`guide`: path guiding's walk state, null without guiding.)
     [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, uint32_t pixel, Rng& rng, int maxDepth,
-                                    PathVertex* z, PathPdfs& pdfs, WalkStats& stats) const {
-        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, rrDepthOf(settings_), z, stats, WalkPdfs::EmitterHits);
+                                    PathVertex* z, PathPdfs& pdfs, WalkStats& stats,
+                                    guiding::WalkGuide* guide = nullptr) const {
+        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, rrDepthOf(settings_), z, stats, WalkPdfs::EmitterHits,
+                            guide);
         Color L(0.f);
         const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
+        // Path guiding's training: what each vertex's techniques found (Trainer records).
+        const bool recording = guide && trainer_->training();
+        std::array<Color, kMaxPathVertices> found;
         for (int t = 2; t <= nz; ++t) {
             const PathVertex& v = z[t - 1];
+            const Color before = L;
             // s = 0: the walk hit an emitter (t - 1 segments).
             bool neeImpossible = t == 2 || !reg_.connectible(z[t - 2]);
             if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
@@ -94,8 +130,8 @@ public:
                 // (regularizer.h (10): where the policy leaves every such connection plain, the
                 // plain routine, whose records no out-of-line call sees)
                 if (reg_.plainNextEvent(v))
-                    nextEvent(scene, reg::kNone, z, t, rng, readLimit, L, pixel, stats);
-                else nextEvent(scene, reg_, z, t, rng, readLimit, L, pixel, stats);
+                    nextEvent(scene, reg::kNone, z, t, rng, readLimit, L, pixel, stats, guide);
+                else nextEvent(scene, reg_, z, t, rng, readLimit, L, pixel, stats, guide);
             }
             // s = 0 through z[t-1]: a delta light in the cone of a BSDF sample (regularizer.h (8): KD13).
             if constexpr (kConeHits) {
@@ -109,7 +145,9 @@ public:
                 if (t <= maxDepth && !v.infinite && reg_.emitterSample(z, t, ctx))
                     regularisedEmitterHit(scene, z, t, ctx, rng, pdfs, readLimit, L, pixel, stats);
             }
+            if (recording) found[t - 1] = L - before;
         }
+        if (recording) recordGuiding(z, nz, found.data(), pixel, *guide);
         return L;
     }
 
@@ -117,7 +155,7 @@ private:
     // Next-event estimation at z[t-1] with policy `reg` (reg_, or reg::None where reg_ leaves it plain).
     template <class R>
     void nextEvent(const Scene& scene, const R& reg, const PathVertex* z, int t, Rng& rng, int readLimit, Color& L,
-                   uint32_t pixel, WalkStats& stats) const {
+                   uint32_t pixel, WalkStats& stats, const guiding::WalkGuide* guide) const {
         // Locals no call sees where the chain is inline (reg::None's): their default
         // initialisation and the fields connect does not read are dropped by the compiler, the
         // rest stay in registers. (A policy's out-of-line select() sees them: regularizer.h (10).)
@@ -125,7 +163,7 @@ private:
         Connection conn;
         std::optional<Rng> side;  // (detail::lightSampleStream)
         if (sampleLightVertex(scene, reg, z[t - 1].p, detail::lightSampleStream(z[t - 1], t, rng, side), y) &&
-            connect<ConnectEnds::LightToSurface>(scene, reg, &y, 1, z, t, conn, stats, readLimit, &rng)) {
+            connect<ConnectEnds::LightToSurface>(scene, reg, &y, 1, z, t, conn, stats, readLimit, &rng, guide)) {
             const Color weighted =
                 conn.contribution * (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
             record(L, weighted, 1, t, pixel, conn.pdfs.regularised, strategies_ && singularPath(&y, 1, z, t), stats);
@@ -220,6 +258,89 @@ private:
         if constexpr (Reg::kPerTechnique) stats.countContribution(c, regularised);
     }
 
+    // Path guiding's records of one camera sample (Trainer): for each vertex j where guiding
+    // applies (guided, or not yet because its leaf has learned nothing) and the walk went on to
+    // z[j+1], with S the contributions found from z[j+1] on (S = beta_j f cos L_i / p, p the
+    // density the direction was drawn with: the mixture's times the roulette's survival):
+    //   radiance target (Mueller 2017): L_i / p, L_i = S / beta_{j+1};
+    //   variance target (Rath 2020 Eqs. 21, 25, 28): (beta_j f cos L_i w_g / I~)^2 / p
+    //     = (S w_g / I~)^2 p, w_g the guide's balance weight (1 before the leaf is guided) and I~
+    //     the pixel estimate;
+    //   and for the learned fraction (Rath Eq. 27) the integrand weighted by the relative pixel
+    //   contribution, f cos L_i beta_j / I~ = S p / I~, with the three densities.
+    // (Channel means throughout.)
+    [[gnu::noinline]] void recordGuiding(const PathVertex* z, int nz, const Color* found, uint32_t pixel,
+                                         const guiding::WalkGuide& guide) const {
+        auto& out = trainer_->buffer();
+        const bool variance = trainer_->settings().target == guiding::Target::Variance;
+        const float pixelEstimate = trainer_->pixelEstimate(pixel);
+        const int rrDepth = rrDepthOf(settings_);
+        Color S(0.f);
+        for (int j = nz - 2; j >= 1; --j) {
+            S += found[j + 1];
+            const PathVertex& v = z[j];
+            if (!guide.leaf[j] || v.delta) continue;
+            const bool guided = guide.guided(j);
+            const float alpha = guided ? guide.alpha[j] : 1.f;
+            const float pBsdf = guide.pdfBsdf[j], pGuide = guide.pdfGuide[j];
+            const float pMix = guided ? alpha * pBsdf + (1.f - alpha) * pGuide : pBsdf;
+            const float cont = v.bxdf->continuation();
+            const float p = pMix * (v.depth >= rrDepth && cont < 1.f ? cont : 1.f);
+            if (!(p > 0.f)) continue;
+            const float s = (S.x + S.y + S.z) / 3.f;
+            guiding::Record r;
+            r.p = v.p;
+            r.d = -z[j + 1].wo;
+            if (variance) {
+                const float c = s * (guided ? (1.f - alpha) * pGuide / pMix : 1.f) / pixelEstimate;
+                r.value = c * c * p;
+            } else {
+                const Color& b = z[j + 1].beta;
+                float li = 0.f;
+                int n = 0;
+                for (int c = 0; c < 3; ++c)
+                    if (b[c] > 0.f) li += S[c] / b[c], ++n;
+                r.value = n > 0 ? li / float(n) / p : 0.f;
+            }
+            r.product = s * p / pixelEstimate;
+            r.bsdfPdf = pBsdf;
+            r.guidePdf = pGuide;
+            r.mixturePdf = p;
+            r.learnFraction = guided;
+            out.emplace_back(pixel, r);
+        }
+    }
+
+    static std::optional<guiding::GuidingSettings> guidingSettingsOf(const RenderSettings& s) {
+        if (s.guiding == "off") return std::nullopt;
+        guiding::GuidingSettings g;
+        if (s.guiding == "radiance") g.target = guiding::Target::Radiance;
+        else if (s.guiding == "variance") g.target = guiding::Target::Variance;
+        else throw std::invalid_argument("unknown guiding '" + s.guiding + "' (supported: off, radiance, variance)");
+        g.learnedFraction = s.guidingBsdfFraction < 0.0;
+        if (!g.learnedFraction) {
+            if (!(s.guidingBsdfFraction > 0.0 && s.guidingBsdfFraction <= 1.0))
+                throw std::invalid_argument("--guiding-bsdf-fraction must be in (0, 1] or 'learned'");
+            g.fixedFraction = float(s.guidingBsdfFraction);
+        }
+        if (s.guidingCombine == "inverse-variance") g.combine = guiding::Combine::InverseVariance;
+        else if (s.guidingCombine == "last") g.combine = guiding::Combine::Last;
+        else throw std::invalid_argument("unknown --guiding-combine '" + s.guidingCombine +
+                                         "' (supported: inverse-variance, last)");
+        if (!(s.guidingSpatialThreshold >= 1.0))
+            throw std::invalid_argument("--guiding-spatial-threshold must be at least 1");
+        g.tree.spatialThreshold = float(s.guidingSpatialThreshold);
+        if (!(s.guidingMaxMb > 0.0 && s.guidingMaxMb <= 1e6))
+            throw std::invalid_argument("--guiding-max-mb must be in (0, 1e6]");
+        g.tree.maxBytes = size_t(s.guidingMaxMb * double(1 << 20));
+        if (!s.strategyImages.empty())
+            throw std::invalid_argument("--strategy-images with --guiding: the guided image combines its iterations, "
+                                        "the strategy images would not sum to it");
+        if (s.resumePasses > 0 || s.checkpoint)
+            throw std::invalid_argument("--checkpoint and --resume do not carry the guiding trees yet");
+        return g;
+    }
+
     static constexpr bool kConeHits = requires { Reg::kConeHits; };
     static constexpr bool kEmitterSample = requires { Reg::kEmitterSample; };
     enum class Strategy { Mis, Nee, Bsdf };
@@ -227,6 +348,8 @@ private:
     Reg reg_;
     Strategy strategy_ = Strategy::Mis;
     std::unique_ptr<StrategyImages> strategies_;  // --strategy-images
+    std::optional<guiding::GuidingSettings> guiding_;  // --guiding (none: off)
+    std::unique_ptr<guiding::Trainer> trainer_;
 };
 
 }  // namespace

@@ -53,6 +53,9 @@ std::unique_ptr<Integrator> makeWith(const RenderSettings& s, Reg reg) {
         throw std::invalid_argument("--reg-tail-rr culls the connections a regulariser makes: it needs --reg jg19, kd13, "
                                     "opsr or jg19,opsr");
     }
+    if (s.guiding != "off" && s.integrator != "pt")
+        throw std::invalid_argument("--guiding guides the path tracer's walks: it needs --integrator pt (got '" +
+                                    s.integrator + "')");
     if (s.integrator == "pt") return makePathTracer(s, reg);
     if (s.integrator == "bpt" || s.integrator == "vcm" || s.integrator == "lt" || s.integrator == "ppm")
         return makeBidirectional(s, reg);
@@ -201,6 +204,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
                               rays += ws.rays;
                               if (ws.contributions) contributions += ws.contributions, regularised += ws.regularised;
                           });
+        integrator->endPass(scene, film, pass);
         ++passes;
         if (progress) {
             auto c0 = Clock::now();
@@ -226,6 +230,8 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     stats.regularisedContributions = regularised.load();
     stats.tau = integrator->regularisationTau();
     stats.invalidRegularisation = integrator->invalidRegularisation();
+    integrator->guidingStats(stats);
+    if (Image combined; integrator->develop(combined)) return combined;
     return film.develop(passes);
 }
 

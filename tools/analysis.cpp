@@ -185,6 +185,24 @@ RunConfig parseConfig(const std::string& spec) {
             if (!(*c.regTailRr >= 0.0 && *c.regTailRr <= kMaxRegTailRr))
                 throw std::invalid_argument(
                     fmt::format("configuration '{}': --reg-tail-rr must be in [0, {:g}]", spec, kMaxRegTailRr));
+        } else if (opt == "--guiding") {
+            c.guiding = oneOf(spec, opt, val, {"off", "radiance", "variance"});
+        } else if (opt == "--guiding-bsdf-fraction") {
+            c.guidingBsdfFraction = val == "learned" ? -1.0 : toDouble(opt, val);
+            if (!(*c.guidingBsdfFraction == -1.0 || (*c.guidingBsdfFraction > 0.0 && *c.guidingBsdfFraction <= 1.0)))
+                throw std::invalid_argument(
+                    fmt::format("configuration '{}': --guiding-bsdf-fraction must be in (0, 1] or 'learned'", spec));
+        } else if (opt == "--guiding-combine") {
+            c.guidingCombine = oneOf(spec, opt, val, {"inverse-variance", "last"});
+        } else if (opt == "--guiding-spatial-threshold") {
+            c.guidingSpatialThreshold = toDouble(opt, val);
+            if (!(*c.guidingSpatialThreshold >= 1.0 && *c.guidingSpatialThreshold <= 1e12))
+                throw std::invalid_argument(
+                    fmt::format("configuration '{}': --guiding-spatial-threshold must be in [1, 1e12]", spec));
+        } else if (opt == "--guiding-max-mb") {
+            c.guidingMaxMb = toDouble(opt, val);
+            if (!(*c.guidingMaxMb > 0.0 && *c.guidingMaxMb <= 1e6))
+                throw std::invalid_argument(fmt::format("configuration '{}': --guiding-max-mb must be in (0, 1e6]", spec));
         } else if (opt == "--label") {
             if (val.empty()) throw std::invalid_argument("--label needs a non-empty name");
             c.label = val;
@@ -272,12 +290,18 @@ RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threa
     s.regOpsrConsistent = c.regOpsrConsistent.value_or(desc.integrator.regOpsrConsistent);
     s.regOpsrAlwaysSample = c.regOpsrAlwaysSample.value_or(desc.integrator.regOpsrAlwaysSample);
     s.regTailRr = c.regTailRr.value_or(desc.integrator.regTailRr);
+    s.guiding = c.guiding.value_or(desc.integrator.guiding);
+    s.guidingBsdfFraction = c.guidingBsdfFraction.value_or(desc.integrator.guidingBsdfFraction);
+    if (c.guidingCombine) s.guidingCombine = *c.guidingCombine;
+    if (c.guidingSpatialThreshold) s.guidingSpatialThreshold = *c.guidingSpatialThreshold;
+    if (c.guidingMaxMb) s.guidingMaxMb = *c.guidingMaxMb;
     if (!c.extra.empty())  // RenderSettings has no free-form options: the first unknown one is named
         throw std::invalid_argument(fmt::format("configuration '{}': unknown option --{} (known: --pt-strategy, "
                                                     "--max-depth, --rr-depth, --hide-emitters, --radius, --radius-alpha, --reg, --reg-tau, "
                                                     "--reg-schedule, --reg-mis, --reg-quality, --reg-diffusion, --reg-specular, --reg-bound, --reg-energy, --reg-r0, --reg-lambda, "
                                                     "--reg-opsr-gamma, --reg-opsr-table, --reg-opsr-consistent, --reg-opsr-always-sample, --reg-tail-rr, "
-                                                    "--label)",
+                                                    "--guiding, --guiding-bsdf-fraction, --guiding-combine, "
+                                                    "--guiding-spatial-threshold, --guiding-max-mb, --label)",
                                                     c.spec, c.extra.begin()->first));
     return s;
 }

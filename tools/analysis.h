@@ -43,6 +43,10 @@ struct RunConfig {
     std::optional<std::string> regOpsrTable;
     std::optional<bool> regOpsrConsistent, regOpsrAlwaysSample;
     std::optional<bool> regQuality, regDiffusion;
+    // Path guiding, as render's --guiding, --guiding-bsdf-fraction (a number or 'learned': < 0),
+    // --guiding-combine, --guiding-spatial-threshold, --guiding-max-mb.
+    std::optional<std::string> guiding, guidingCombine;
+    std::optional<double> guidingBsdfFraction, guidingSpatialThreshold, guidingMaxMb;
     std::map<std::string, std::string> extra;
 };
 

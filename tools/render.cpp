@@ -289,6 +289,31 @@ int main(int argc, char** argv) {
                    "the regularised BSDF value there (pi f = 1 for a white Lambertian), and the contribution divided by "
                    "it; unbiased for the regularised image (default 0.1; 0 casts every one)")
         ->check(lt::cli::range(0.0, kMaxRegTailRr));
+    std::string guiding, guidingFraction, guidingCombine = "inverse-variance";
+    double guidingSpatialThreshold = 4000.0, guidingMaxMb = 512.0;
+    app.add_option("--guiding", guiding,
+                   "Path guiding of pt (integrators/guiding/): off (default), radiance (Mueller et al. 2017's "
+                   "SD-tree, incident radiance) or variance (Rath et al. 2020, Eq. 21 with the MIS compensation of "
+                   "Eq. 25); trains in iterations of doubling length over the first half of the budget")
+        ->check(CLI::IsMember({"off", "radiance", "variance"}));
+    app.add_option("--guiding-bsdf-fraction", guidingFraction,
+                   "Probability of BSDF sampling in the one-sample mixture with the guide: a number in (0, 1] "
+                   "(default 0.5) or 'learned' (per spatial leaf, Rath Eq. 27, kept >= 0.1)");
+    app.add_option("--guiding-combine", guidingCombine,
+                   "The guided image: inverse-variance (every iteration weighted by the inverse of its variance, "
+                   "Mueller 2019; default) or last (the final iteration alone)")
+        ->check(CLI::IsMember({"inverse-variance", "last"}));
+    app.add_option("--guiding-spatial-threshold", guidingSpatialThreshold,
+                   "c of the spatial split: a leaf splits when iteration k left more than c sqrt(2^k) records in it "
+                   "(default 4000)")
+        ->check(lt::cli::range(1.0, 1e12));
+    app.add_option("--guiding-max-mb", guidingMaxMb, "Cap on the guiding trees' memory in MiB (default 512)")
+        ->check(lt::cli::range(0.001, 1e6));
+    std::string guidingDump;
+    app.add_option("--guiding-dump", guidingDump,
+                   "Write what the guide learned to this folder: leaves.png (the spatial leaves seen from the camera), "
+                   "dir_X_Y.png (the directional density of the leaf at pixel X,Y of a 4x4 grid over the square "
+                   "((cos theta + 1) / 2, phi / 2 pi), log scale 1e-3..1e3 of uniform) and points.txt");
     app.add_flag("-q,--quiet", quiet, "No progress bar");
     app.add_option("--stats-json", statsJson, "Write render statistics as JSON to this file");
     std::string checkpointPath, resumePath;
@@ -382,6 +407,26 @@ int main(int argc, char** argv) {
     settings.regOpsrConsistent = regOpsrConsistent || desc.integrator.regOpsrConsistent;
     settings.regOpsrAlwaysSample = regOpsrAlwaysSample || desc.integrator.regOpsrAlwaysSample;
     settings.regTailRr = regTailRr >= 0.0 ? regTailRr : desc.integrator.regTailRr;
+    settings.guiding = !guiding.empty() ? guiding : desc.integrator.guiding;
+    settings.guidingBsdfFraction = desc.integrator.guidingBsdfFraction;
+    if (!guidingFraction.empty()) {
+        if (guidingFraction == "learned") {
+            settings.guidingBsdfFraction = -1.0;
+        } else {
+            char* end = nullptr;
+            const double f = std::strtod(guidingFraction.c_str(), &end);
+            if (end == guidingFraction.c_str() || *end != '\0' || !(f > 0.0 && f <= 1.0)) {
+                fmt::print(stderr, "error: --guiding-bsdf-fraction: must be a number in (0, 1] or 'learned' (got '{}')\n",
+                           guidingFraction);
+                return 1;
+            }
+            settings.guidingBsdfFraction = f;
+        }
+    }
+    settings.guidingCombine = guidingCombine;
+    settings.guidingSpatialThreshold = guidingSpatialThreshold;
+    settings.guidingMaxMb = guidingMaxMb;
+    settings.guidingDump = guidingDump;
     // A knob of another regulariser than the one that runs is a mistake, not a no-op.
     {
         const bool jg19Knob = regTau > 0.0 || !regSchedule.empty() || !regMis.empty() || !regQuality.empty() ||
@@ -516,6 +561,10 @@ int main(int argc, char** argv) {
                    : settings.regularizer == "opsr" ? "offset N^-lambda"
                                                     : "tau_N",
                    stats.tau);
+    if (settings.guiding != "off")
+        fmt::print(", guiding {}: {} iterations, {} training spp, {} spatial leaves, {} directional nodes, {:.1f} MiB",
+                   settings.guiding, stats.guidingIterations, stats.guidingTrainingSpp, stats.guidingLeaves,
+                   stats.guidingDirectionalNodes, double(stats.guidingBytes) / double(1 << 20));
     if (stats.invalidRegularisation > 0)  // (never expected: each is a refused technique, reported)
         fmt::print(", {} regulariser values not a number (their techniques refused)", stats.invalidRegularisation);
     fmt::print(" -> {}\n", output);
@@ -539,6 +588,20 @@ int main(int argc, char** argv) {
         j["max_depth"] = settings.maxDepth;
         j["rr_depth"] = rrDepthOf(settings);
         j.update(regularizerSettings(settings, false));
+        j["guiding"] = settings.guiding;
+        if (settings.guiding != "off") {
+            j["guiding_bsdf_fraction"] = settings.guidingBsdfFraction < 0.0 ? nlohmann::json("learned")
+                                                                            : nlohmann::json(settings.guidingBsdfFraction);
+            j["guiding_combine"] = settings.guidingCombine;
+            j["guiding_spatial_threshold"] = settings.guidingSpatialThreshold;
+            j["guiding_max_mb"] = settings.guidingMaxMb;
+            j["guiding_iterations"] = stats.guidingIterations;
+            j["guiding_training_spp"] = stats.guidingTrainingSpp;
+            j["guiding_spatial_nodes"] = stats.guidingNodes;
+            j["guiding_spatial_leaves"] = stats.guidingLeaves;
+            j["guiding_directional_nodes"] = stats.guidingDirectionalNodes;
+            j["guiding_bytes"] = stats.guidingBytes;
+        }
         if (settings.regularizer == "jg19" || settings.regularizer == "jg19,opsr") j["reg_tau_last"] = stats.tau;
         if (settings.regularizer == "kd13") j["reg_r_last"] = stats.tau;  // r_N of one mollified vertex at the last pass
         if (settings.regularizer == "opsr") j["reg_offset_last"] = stats.tau;  // N^-lambda at the last pass (1: none)

@@ -56,6 +56,7 @@
 #include "bsdf/surface_bsdf.h"
 #include "core/rng.h"
 #include "core/scene.h"
+#include "integrators/guiding/walk_guide.h"
 #include "integrators/transport/regularizer.h"
 
 namespace lt {
@@ -179,10 +180,12 @@ int lightWalk(const Scene& scene, const Reg& reg, Rng& rng, int maxVertices, int
 template <class Reg>
 PathVertex cameraEndpoint(const Scene& scene, const Reg& reg);
 
-// Starts a camera subpath through raster position `raster`.
+// Starts a camera subpath through raster position `raster`. With `guide` (the path tracer's path
+// guiding, integrators/guiding/walk_guide.h) the guided vertices sample the one-sample mixture of
+// their BSDF and the guide, and the walk's densities are the mixture's; guide->leaf says which.
 template <class Reg>
 int cameraWalk(const Scene& scene, const Reg& reg, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
-               PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All);
+               PathVertex* path, WalkStats& stats, WalkPdfs pdfs = WalkPdfs::All, guiding::WalkGuide* guide = nullptr);
 
 // ---- MIS ----------------------------------------------------------------------------------
 // Which connection techniques (s, t) an integrator uses.
@@ -299,7 +302,8 @@ struct Connection {
 enum class ConnectEnds { Any, LightToSurface };
 template <ConnectEnds ends = ConnectEnds::Any, class Reg>
 inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
-                    Connection& c, WalkStats& stats, int readLimit = kMaxPathVertices, const Rng* roulette = nullptr);
+                    Connection& c, WalkStats& stats, int readLimit = kMaxPathVertices, const Rng* roulette = nullptr,
+                    const guiding::WalkGuide* guide = nullptr);
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
 // fills the pdfs (path_templates.h).

@@ -257,7 +257,8 @@ inline bool lightEndpoint(const Scene& scene, const Reg& reg, size_t li, const V
 
 template <ConnectEnds ends, class Reg>
 inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
-                    Connection& c, WalkStats& stats, int readLimit, const Rng* roulette) {
+                    Connection& c, WalkStats& stats, int readLimit, const Rng* roulette,
+                    const guiding::WalkGuide* guide) {
     Technique tech{y, s, z, t};
     const PathVertex& a = y[s - 1];  // light side
     const PathVertex& b = z[t - 1];  // camera side
@@ -306,6 +307,10 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
                                                       tech.pdfCamera)
                      : detail::evalAtConnection<false>(b, wBA, kRadianceContext, tech.ratioCamera, tech.pdfCamera);
         cosB = std::abs(glm::dot(b.shading.n, wBA));
+        // A guided camera end: the walk samples the mixture there (walk_guide.h), so the camera
+        // walk's density of a is the mixture's, before any policy scales it.
+        if (guide && guide->guided(t - 1))
+            eb.pdfFwd = SolidAnglePdf(guide->mixture(t - 1, eb.pdfFwd.value, wBA, b.bxdf->continuation()));
     }
     if (isBlack(eb.f)) return false;
     Color fa;

@@ -9,6 +9,8 @@
 
 namespace lt {
 
+static_assert(guiding::kMaxWalkVertices == kMaxPathVertices);
+
 namespace detail {
 
 // A walk's own density of a vertex (`fwd`: fromCamera for a camera walk, fromLight for a light
@@ -22,8 +24,9 @@ using VertexDensity = AreaPdf PathVertex::*;
 // direction between the two vertex positions (the solid-angle pdfFwd that gives the walk's own
 // density of path[i], and the reverse density of path[i-2]). Keeps the sampled values where the
 // re-evaluation gives zero (grazing directions).
+// (A guided prev: the mixture's density, guide->mixture.)
 static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfContext& ctx, VertexDensity rev,
-                        SolidAnglePdf& pdfFwd) {
+                        SolidAnglePdf& pdfFwd, const guiding::WalkGuide* guide) {
     const PathVertex& prev = path[i - 1];
     const Vec3 d = -path[i].wo;
     switch (prev.kind) {
@@ -31,6 +34,8 @@ static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfC
             if (!prev.delta && prev.bxdf) {
                 BsdfEval e = prev.bsdf().eval(prev.wo, d, ctx);
                 detail::applyContinuation(e, *prev.bxdf);  // the roulette at prev
+                if (guide && guide->guided(i - 1))
+                    e.pdfFwd = SolidAnglePdf(guide->mixture(i - 1, e.pdfFwd.value, d, prev.bxdf->continuation()));
                 if (e.pdfFwd.value > 0.f) pdfFwd = e.pdfFwd;
                 if (i >= 2 && e.pdfRev.value > 0.f)
                     path[i - 2].*rev = convertDensity(e.pdfRev, path[i - 2], prev.wo, sqr(prev.segmentLength));
@@ -50,6 +55,47 @@ static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfC
     }
 }
 
+// One sample of guided vertex v (walk index i): with probability alpha the BSDF's, else the
+// guide's, and in either case the weight f |cos| / p_mix and the density p_mix of the mixture
+// (Rath et al. 2020 Eq. 22; walk_guide.h). A BSDF sample of a delta lobe keeps its own weight
+// and density (the guide has none there). The reverse density stays the BSDF's (a camera walk
+// reads it only for BPT's MIS, which is not guided).
+inline bool guidedSample(const PathVertex& v, guiding::WalkGuide& guide, int i, Rng& rng, const BsdfContext& ctx,
+                         BsdfSample& bs) {
+    const float alpha = guide.alpha[i];
+    const float uSel = rng.uniform();
+    const float uLobe = rng.uniform();
+    const Vec2 u = rng.uniform2();
+    const SurfaceBsdf bsdf = v.bsdf();
+    if (uSel < alpha) {
+        if (!bsdf.sample(v.wo, uLobe, u, ctx, bs) || isBlack(bs.weight)) return false;
+        if (bs.lobe & kDelta) return true;
+        guide.pdfBsdf[i] = bs.pdfFwd.value;
+        guide.pdfGuide[i] = guide.leaf[i]->sampling.pdf(bs.wi).value;
+        const float mix = alpha * bs.pdfFwd.value + (1.f - alpha) * guide.pdfGuide[i];
+        if (!(mix > 0.f)) return false;
+        bs.weight *= bs.pdfFwd.value / mix;
+        bs.pdfFwd = SolidAnglePdf(mix);
+        return true;
+    }
+    SolidAnglePdf pdfGuide;
+    const Vec3 wi = guide.leaf[i]->sampling.sample(u, &pdfGuide);
+    const BsdfEval e = bsdf.eval(v.wo, wi, ctx);
+    if (isBlack(e.f)) return false;
+    guide.pdfBsdf[i] = e.pdfFwd.value;
+    guide.pdfGuide[i] = pdfGuide.value;
+    const float mix = alpha * e.pdfFwd.value + (1.f - alpha) * pdfGuide.value;
+    if (!(mix > 0.f)) return false;
+    bs.wi = wi;
+    bs.weight = e.f * (std::abs(glm::dot(wi, v.shading.n)) / mix);
+    bs.pdfFwd = SolidAnglePdf(mix);
+    bs.pdfRev = e.pdfRev;
+    const float cosO = glm::dot(v.wo, v.ng), cosI = glm::dot(wi, v.ng);
+    bs.lobe = cosO * cosI > 0.f ? kGlossy | kReflection : kGlossy | kTransmission;
+    bs.eta = 1.f;
+    return true;
+}
+
 // Extends a subpath whose vertex path[0] (endpoint) is filled in, starting with `ray` whose
 // direction was sampled with solid-angle density pdfDir and throughput beta (see the walks in
 // path.h). `mode` says which walk it is: Radiance for camera subpaths (their own densities are
@@ -57,7 +103,7 @@ static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfC
 template <class Reg>
 int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAnglePdf pdfDir, Rng& rng,
                TransportMode mode, int maxVertices, int rrDepth, PathVertex* path, WalkStats& stats,
-               WalkPdfs pdfs) {
+               WalkPdfs pdfs, guiding::WalkGuide* guide = nullptr) {
     constexpr float kNotComputed = std::numeric_limits<float>::quiet_NaN();
     const bool allPdfs = pdfs == WalkPdfs::All;
     const BsdfContext& ctx = plainContext(mode);  // the walks sample and evaluate the materials' own BSDFs
@@ -86,16 +132,24 @@ int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAng
         const AreaPdf unfilled(allPdfs ? 0.f : kNotComputed);
         v.init(reg, VertexKind::Surface, &prev, wo, backLen, beta, unfilled, unfilled);
         if (allPdfs || v.light) {
-            refreshPdfs(scene, path, n, ctx, rev, pdfFwd);
+            refreshPdfs(scene, path, n, ctx, rev, pdfFwd, guide);
             v.*fwd = convertDensity(pdfFwd, v, v.wo, sqr(backLen));
         }
         ++n;
         if (n >= maxVertices || !v.bxdf) break;
 
         BsdfSample bs;
-        float uLobe = rng.uniform();
-        Vec2 u = rng.uniform2();
-        if (!v.bsdf().sample(v.wo, uLobe, u, ctx, bs) || isBlack(bs.weight)) break;
+        if (guide && guide->decide(n - 1, v.p, v.roughness, v.deltaBsdf)) {
+            if (!guidedSample(v, *guide, n - 1, rng, ctx, bs)) break;
+        } else {
+            float uLobe = rng.uniform();
+            Vec2 u = rng.uniform2();
+            if (!v.bsdf().sample(v.wo, uLobe, u, ctx, bs) || isBlack(bs.weight)) break;
+            if (guide && guide->leaf[n - 1]) {  // (a leaf that has not learned yet: for the records)
+                guide->pdfBsdf[n - 1] = bs.pdfFwd.value;
+                guide->pdfGuide[n - 1] = 0.25f * kInvPi;
+            }
+        }
         // The roulette's continuation probability is part of both densities of the next vertex
         // (and of prev, below) whether or not the roulette runs at this depth ("Russian
         // roulette", path.h).
@@ -144,13 +198,13 @@ PathVertex cameraEndpoint(const Scene& scene, const Reg& reg) {
 
 template <class Reg>
 int cameraWalk(const Scene& scene, const Reg& reg, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
-               PathVertex* path, WalkStats& stats, WalkPdfs pdfs) {
+               PathVertex* path, WalkStats& stats, WalkPdfs pdfs, guiding::WalkGuide* guide) {
     SolidAnglePdf pdfDir;
     const Ray ray = scene.camera().generateRay(raster, pdfDir);
     detail::setCameraEndpoint(scene, reg, path[0]);
     if (maxVertices <= 1) return 1;
     return detail::randomWalk(scene, reg, ray, Color(1.f), pdfDir, rng, TransportMode::Radiance, maxVertices, rrDepth,
-                              path, stats, pdfs);
+                              path, stats, pdfs, guide);
 }
 
 template <class Reg>
@@ -272,7 +326,7 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
     template int lightWalk(const Scene&, const Reg&, Rng&, int, int, PathVertex*, WalkStats&);               \
     template PathVertex cameraEndpoint(const Scene&, const Reg&);                                            \
     template int cameraWalk(const Scene&, const Reg&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,  \
-                            WalkPdfs);                                                                       \
+                            WalkPdfs, guiding::WalkGuide*);                                                  \
     template Color emitterHit(const Scene&, const Reg&, const PathVertex*, int, PathPdfs&, int, bool);       \
     template bool merge(const Reg&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, \
                         int, Connection&, const double*);
