@@ -19,11 +19,12 @@ struct RenderSettings {
     // Set (e.g. by a signal handler) to stop after the pass in flight; RenderStats::interrupted.
     const std::atomic<bool>* stop = nullptr;
     // Checkpoints: resume from `resumePasses` passes whose film state is `resumeFilm`
-    // (Film::state), and call `checkpoint` with the passes done and the film every
+    // (Film::state) and integrator state `resumeIntegrator` (Integrator::state), and call
+    // `checkpoint` with the passes done, the film and the integrator's state every
     // `checkpointEvery` seconds and after the last pass (--spp mode only).
     uint64_t resumePasses = 0;
-    std::string resumeFilm;
-    std::function<void(uint64_t, const Film&)> checkpoint;
+    std::string resumeFilm, resumeIntegrator;
+    std::function<void(uint64_t, const Film&, const std::string&)> checkpoint;
     double checkpointEvery = 0.0;
     std::string integrator = "pt";  // pt (bpt, vcm, lt, ppm: see issue 3)
     int spp = 0;                    // samples per pixel; 0 = until timeLimit
@@ -156,6 +157,9 @@ public:
     virtual bool develop(Image& out) const { return false; }
     // Path guiding's statistics (nothing without guiding).
     virtual void guidingStats(RenderStats& stats) const {}
+    // What a checkpoint must carry besides the film, between passes (path guiding's trainer; ""
+    // for none); given back as RenderSettings::resumeIntegrator.
+    virtual std::string state() const { return {}; }
     // The regulariser's bound tau of the current pass (0: none).
     virtual double regularisationTau() const { return 0.0; }
     // The regulariser's values found not to be numbers so far (regularizer.h (7)).

@@ -30,10 +30,7 @@ public:
     }
     std::string name() const override { return "pt"; }
     void beginPass(const Scene& scene, Film&, uint32_t pass, WalkStats&) override {
-        if (pass == 0 && guiding_)
-            trainer_ = std::make_unique<guiding::Trainer>(
-                *guiding_, scene.boundsCenter(), scene.boundsRadius() * 1.001f + 1e-4f, scene.camera().width(),
-                scene.camera().height(), uint64_t(std::max(0, settings_.spp)), settings_.timeLimit, settings_.seed);
+        if (guiding_ && !trainer_) startGuiding(scene, pass > 0);  // (the first pass of this run)
         if (trainer_) trainer_->beginPass(pass);
         if (pass == 0 && !settings_.strategyImages.empty())
             strategies_ = std::make_unique<StrategyImages>(scene.camera().width(), scene.camera().height(),
@@ -49,6 +46,8 @@ public:
     uint64_t invalidRegularisation() const override { return invalidRegularisationOf(reg_); }
     void finish(const Scene& scene, uint64_t passes) override {
         if (strategies_) strategies_->write(settings_.strategyImages, passes);
+        // (a checkpoint of a finished render resumed: no pass ran, the image is the saved state's)
+        if (guiding_ && !trainer_ && passes > 0) startGuiding(scene, true);
         if (trainer_ && !settings_.guidingDump.empty()) guiding::dumpGuide(scene, trainer_->tree(), settings_.guidingDump);
     }
     void endPass(const Scene&, Film&, uint32_t pass) override {
@@ -59,6 +58,7 @@ public:
         out = trainer_->develop();
         return true;
     }
+    std::string state() const override { return trainer_ ? trainer_->state() : std::string(); }
     void guidingStats(RenderStats& st) const override {
         if (!trainer_) return;
         st.guidingIterations = trainer_->iterations();
@@ -311,6 +311,14 @@ private:
         }
     }
 
+    // The trainer of this run, from the checkpoint's state where the run resumes one.
+    void startGuiding(const Scene& scene, bool resumed) {
+        trainer_ = std::make_unique<guiding::Trainer>(
+            *guiding_, scene.boundsCenter(), scene.boundsRadius() * 1.001f + 1e-4f, scene.camera().width(),
+            scene.camera().height(), uint64_t(std::max(0, settings_.spp)), settings_.timeLimit, settings_.seed);
+        if (resumed) trainer_->restore(settings_.resumeIntegrator);
+    }
+
     static std::optional<guiding::GuidingSettings> guidingSettingsOf(const RenderSettings& s) {
         if (s.guiding == "off") return std::nullopt;
         guiding::GuidingSettings g;
@@ -336,8 +344,6 @@ private:
         if (!s.strategyImages.empty())
             throw std::invalid_argument("--strategy-images with --guiding: the guided image combines its iterations, "
                                         "the strategy images would not sum to it");
-        if (s.resumePasses > 0 || s.checkpoint)
-            throw std::invalid_argument("--checkpoint and --resume do not carry the guiding trees yet");
         return g;
     }
 

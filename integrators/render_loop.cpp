@@ -213,13 +213,14 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
             excluded += std::chrono::duration<double>(Clock::now() - c0).count();
         }
         if (settings.checkpoint && settings.checkpointEvery > 0.0 && elapsed() - lastCheckpoint >= settings.checkpointEvery) {
-            settings.checkpoint(passes, film);
+            settings.checkpoint(passes, film, integrator->state());
             savedPasses = passes;
             lastCheckpoint = elapsed();
         }
         if (totalPasses > 0 && settings.timeLimit > 0.0 && elapsed() >= settings.timeLimit) break;
     }
-    if (settings.checkpoint && passes != savedPasses) settings.checkpoint(passes, film);  // (not twice the same)
+    if (settings.checkpoint && passes != savedPasses)
+        settings.checkpoint(passes, film, integrator->state());  // (not twice the same)
     integrator->finish(scene, passes);
     stats.seconds = elapsed();
     stats.spp = passes;

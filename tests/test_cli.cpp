@@ -442,3 +442,45 @@ TEST_CASE("checkpoint and resume: stopped and resumed any number of times, the i
     CHECK_FALSE(fs::exists(dir / "x.exr"));
     fs::remove_all(dir);
 }
+
+TEST_CASE("render --guiding: the summary line, the stats, the dump, a checkpoint resumed, and its bad values", "[cli][guiding]") {
+    fs::path dir = tempDir("guiding");
+    const std::string scene = std::string(LT_SOURCE_DIR) + "/scenes/guiding/ceiling-lit.xml -D res=16 --quiet ";
+    const fs::path out = dir / "g.exr", stats = dir / "g.json", dump = dir / "dump";
+    Run r = run(scene + "--spp 16 --guiding variance --guiding-bsdf-fraction learned --guiding-spatial-threshold 50 "
+                        "--guiding-dump " + dump.string() + " -o " + out.string() + " --stats-json " + stats.string());
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    CHECK(std::regex_search(r.output, std::regex(R"(guiding variance: 4 iterations, 7 training spp, [0-9]+ spatial leaves)")));
+    const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+    CHECK(j["guiding"] == "variance");
+    CHECK(j["guiding_bsdf_fraction"] == "learned");
+    CHECK(j["guiding_iterations"] == 4);
+    CHECK(j["guiding_training_spp"] == 7);
+    CHECK(j["guiding_bytes"].get<double>() > 0);
+    CHECK(fs::file_size(dump / "leaves.png") > 0);
+    CHECK(fs::exists(dump / "points.txt"));
+    // The state through the checkpoint file: a finished render's checkpoint resumed gives its
+    // combined image (tests/test_guiding_pt.cpp stops and resumes mid-render in process). A
+    // 16-pass render's state is not a 32-pass one's (the schedule depends on --spp): refused.
+    const std::string ck = (dir / "ck").string();
+    const std::string g = scene + "--guiding radiance --guiding-spatial-threshold 50 ";
+    REQUIRE(run(g + "--spp 32 --threads 1 --checkpoint " + ck + " -o " + (dir / "straight.exr").string()).code == 0);
+    Run again = run(g + "--spp 32 --resume " + ck + " -o " + (dir / "again.exr").string());
+    INFO(again.output);
+    REQUIRE(again.code == 0);
+    CHECK(samePixels(dir / "again.exr", dir / "straight.exr"));
+    REQUIRE(run(g + "--spp 16 --checkpoint " + ck + " -o " + (dir / "a.exr").string()).code == 0);
+    Run other = run(g + "--spp 32 --resume " + ck + " -o " + (dir / "b.exr").string());
+    CHECK(other.code != 0);
+    CHECK(other.output.find("another sample count") != std::string::npos);
+    for (const std::string bad : {"--guiding bogus", "--guiding variance --guiding-bsdf-fraction 0",
+                                  "--guiding variance --guiding-bsdf-fraction x", "--guiding variance --integrator bpt",
+                                  "--guiding variance --guiding-max-mb 0"}) {
+        Run b = run(scene + "--spp 2 " + bad + " -o " + (dir / "bad.exr").string());
+        INFO(bad << "\n" << b.output);
+        CHECK(b.code == 1);
+        CHECK_FALSE(fs::exists(dir / "bad.exr"));
+    }
+    fs::remove_all(dir);
+}

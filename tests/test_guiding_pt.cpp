@@ -2,59 +2,17 @@
 // targets and both fractions, exact in the white furnace, the mixture's density in every MIS
 // weight, deterministic across thread counts, bounded in memory.
 #include <catch2/catch.hpp>
+#include <atomic>
 #include <cstring>
 #include "integrators/integrator.h"
 #include "scene_builders.h"
+#include "render_compare.h"
 #include "stats.h"
 
 using namespace lt;
 using namespace lt::test;
 
 namespace {
-
-Image renderDesc(const SceneDesc& d, RenderSettings s, RenderStats* statsOut = nullptr) {
-    Scene scene(d);
-    RenderStats stats;
-    s.quiet = true;
-    Image img = renderImage(scene, s, stats);
-    if (statsOut) *statsOut = stats;
-    return img;
-}
-
-double imageMean(const Image& img) {
-    double m = 0;
-    for (const Color& c : img.pixels) m += (double(c.x) + c.y + c.z) / 3.0;
-    return m / double(img.pixels.size());
-}
-
-// K renders (seeds 1000..) -> per-block sample statistics of the block means.
-std::vector<SampleStats> blockStats(const SceneDesc& d, RenderSettings s, int k, int blocks) {
-    std::vector<std::vector<double>> perBlock(size_t(blocks) * blocks);
-    for (int i = 0; i < k; ++i) {
-        s.seed = 1000 + i;
-        auto m = blockMeans(renderDesc(d, s), blocks, blocks);
-        for (size_t b = 0; b < m.size(); ++b) perBlock[b].push_back(m[b]);
-    }
-    std::vector<SampleStats> out;
-    for (auto& v : perBlock) out.push_back(sampleStats(v));
-    return out;
-}
-
-// Blocks whose means differ (Welch's t) at family-wise significance alpha (Sidak over the blocks).
-int differingBlocks(const std::vector<SampleStats>& a, const std::vector<SampleStats>& b, double alpha,
-                    double& worst) {
-    const double perTest = sidak(alpha, int(a.size()));
-    int bad = 0;
-    worst = 0.0;
-    for (size_t i = 0; i < a.size(); ++i) {
-        double df;
-        const double t = welchT(a[i], b[i], df);
-        const double crit = studentTCritical(perTest, std::max(df, 1.0));
-        worst = std::max(worst, std::abs(t) / crit);
-        if (std::abs(t) > crit) ++bad;
-    }
-    return bad;
-}
 
 // A Cornell box with a glossy panel: indirect light everywhere, a glossy lobe to guide.
 SceneDesc glossyBox(int res) {
@@ -89,7 +47,7 @@ TEST_CASE("guided PT matches unguided PT on a glossy Cornell box (both targets a
         s.spp = 64;
         s.threads = 2;
         double worst;
-        const int bad = differingBlocks(ref, blockStats(d, s, 12, 4), 1e-3, worst);
+        const int bad = differingBlocks(ref, blockStats(d, s, 12, 4), 1e-3, &worst);
         INFO(target << " fraction " << fraction << ": " << bad << " blocks differ, worst |t|/crit " << worst);
         CHECK(bad == 0);
     }
@@ -234,4 +192,58 @@ TEST_CASE("a guided vertex's density is the mixture's in the walk and in next-ev
     INFO(checked << " light hits through guided vertices, worst relative difference " << worst);
     CHECK(checked >= 50);
     CHECK(worst < 1e-3);  // (float rounding of directions recomputed from offset points)
+}
+
+TEST_CASE("a guided render stopped and resumed from its checkpoint is the straight render bit for bit", "[guiding]") {
+    // In process: the render is stopped after 5 of 24 passes (inside the third training
+    // iteration) and after 17 (inside the final one), each time resumed from the film and the
+    // guiding state the checkpoint callback received, with another thread count; the image must be
+    // the straight render's. A state from a render to another --spp is refused.
+    const SceneDesc d = glossyBox(16);
+    const Scene scene(d);
+    for (double fraction : {0.5, -1.0}) {
+        RenderSettings s = guided("variance", fraction);
+        s.spp = 24;
+        s.seed = 5;
+        s.quiet = true;
+        RenderStats st;
+        const Image straight = renderImage(scene, s, st);
+        uint64_t passes = 0;
+        std::string film, state;
+        for (const uint64_t stopAt : {uint64_t(5), uint64_t(17), uint64_t(0)}) {
+            RenderSettings r = s;
+            r.threads = stopAt == 17 ? 1 : 2;
+            r.resumePasses = passes;
+            r.resumeFilm = film;
+            r.resumeIntegrator = state;
+            std::atomic<bool> stop{false};
+            r.stop = &stop;
+            r.checkpointEvery = 1e9;  // only the last one
+            r.checkpoint = [&](uint64_t p, const Film& f, const std::string& g) {
+                passes = p;
+                film = f.state();
+                state = g;
+            };
+            RenderStats rs;
+            const Image img = renderImage(scene, r, rs, [&](const Progress& p) {
+                if (stopAt > 0 && p.passesDone >= stopAt) stop = true;
+            });
+            if (stopAt == 0) {
+                INFO("fraction " << fraction);
+                CHECK(passes == 24);
+                CHECK(std::memcmp(img.pixels.data(), straight.pixels.data(), img.pixels.size() * sizeof(Color)) == 0);
+                CHECK(rs.guidingLeaves == st.guidingLeaves);
+            } else {
+                REQUIRE(passes == stopAt);
+                REQUIRE(!state.empty());
+            }
+        }
+        RenderSettings other = s;
+        other.spp = 32;
+        other.resumePasses = 17;
+        other.resumeFilm = film;
+        other.resumeIntegrator = state;
+        RenderStats os;
+        CHECK_THROWS_WITH(renderImage(scene, other, os), Catch::Contains("another sample count"));
+    }
 }

@@ -53,7 +53,7 @@ void installStopHandlers() {
 // ---- Checkpoints: a text header (magic, key, passes, film bytes), then the film's state ----------
 // (2: the key holds the regulariser's settings as they apply, regularizerSettings; a version-1
 // checkpoint's key could not match, and is refused by its magic instead)
-constexpr const char* kCheckpointMagic = "lighttransport checkpoint 2";
+constexpr const char* kCheckpointMagic = "lighttransport checkpoint 3";
 
 // The regulariser's settings as the integrator uses them: the defaults resolved, and only the
 // chosen regulariser's (none: its name alone). The stats JSON reports them; the checkpoint key
@@ -98,21 +98,26 @@ std::string checkpointKeyOf(const std::string& scenePath, const std::map<std::st
                             const RenderSettings& s) {
     const std::string settings =
         fmt::format("integrator {}\nseed {}\nmax_depth {}\nrr_depth {}\nhide_emitters {}\npt_strategy {}\nradius {}\n"
-                    "radius_alpha {}\nregulariser {}\n",
+                    "radius_alpha {}\nregulariser {}\nguiding {} {} {} {} {}\n",
                     s.integrator, s.seed, s.maxDepth, s.rrDepth, s.hideEmitters, s.ptStrategy, s.radius,
-                    s.radiusAlpha, regularizerSettings(s, true).dump());
+                    s.radiusAlpha, regularizerSettings(s, true).dump(), s.guiding, s.guidingBsdfFraction,
+                    s.guidingCombine, s.guidingSpatialThreshold, s.guidingMaxMb);
     return analysis::sha256Hex(analysis::hashScene(scenePath, defines).sha256 + "\n" + settings);
 }
 
-void writeCheckpoint(const std::string& path, const std::string& key, uint64_t passes, const Film& film) {
+// The integrator's state (path guiding's trainer; often empty) follows the film's bytes.
+void writeCheckpoint(const std::string& path, const std::string& key, uint64_t passes, const Film& film,
+                     const std::string& integratorState) {
     const std::string state = film.state();
-    analysis::writeTextFile(path, fmt::format("{}\nkey {}\npasses {}\nbytes {}\n", kCheckpointMagic, key, passes,
-                                              state.size()) + state);
+    analysis::writeTextFile(path, fmt::format("{}\nkey {}\npasses {}\nbytes {}\nintegrator_bytes {}\n", kCheckpointMagic,
+                                              key, passes, state.size(), integratorState.size()) +
+                                      state + integratorState);
 }
 
 // Reads a checkpoint written with `key`; throws naming what is wrong (another scene, integrator
 // or settings; not a checkpoint; truncated).
-void readCheckpoint(const std::string& path, const std::string& key, uint64_t& passes, std::string& film) {
+void readCheckpoint(const std::string& path, const std::string& key, uint64_t& passes, std::string& film,
+                    std::string& integratorState) {
     const std::string all = analysis::readFile(path);
     std::istringstream in(all);
     std::string magic, word, fileKey;
@@ -125,13 +130,17 @@ void readCheckpoint(const std::string& path, const std::string& key, uint64_t& p
     if (!(in >> word >> fileKey) || word != "key") throw std::runtime_error("malformed header (key)");
     if (!(in >> word >> passes) || word != "passes") throw std::runtime_error("malformed header (passes)");
     if (!(in >> word >> bytes) || word != "bytes") throw std::runtime_error("malformed header (bytes)");
+    size_t integratorBytes = 0;
+    if (!(in >> word >> integratorBytes) || word != "integrator_bytes")
+        throw std::runtime_error("malformed header (integrator_bytes)");
     in.get();  // the newline
     if (fileKey != key)
         throw std::runtime_error("it is from another scene, integrator or settings (key " + fileKey.substr(0, 12) +
                                  ", this render's " + key.substr(0, 12) + ")");
     const size_t at = size_t(in.tellg());
-    if (all.size() != at + bytes) throw std::runtime_error("truncated or damaged (film size)");
-    film = all.substr(at);
+    if (all.size() != at + bytes + integratorBytes) throw std::runtime_error("truncated or damaged (film size)");
+    film = all.substr(at, bytes);
+    integratorState = all.substr(at + bytes);
 }
 
 // Why the file `out` could not be written, or "" where it can: its folder is created where missing,
@@ -488,7 +497,7 @@ int main(int argc, char** argv) {
     }
     if (!resumePath.empty()) {
         try {
-            readCheckpoint(resumePath, checkpointKey, settings.resumePasses, settings.resumeFilm);
+            readCheckpoint(resumePath, checkpointKey, settings.resumePasses, settings.resumeFilm, settings.resumeIntegrator);
         } catch (const std::exception& e) {
             fmt::print(stderr, "error: --resume {}: {}\n", resumePath, e.what());
             return 1;
@@ -506,8 +515,8 @@ int main(int argc, char** argv) {
             return 3;
         }
         settings.checkpointEvery = checkpointEvery;
-        settings.checkpoint = [&](uint64_t passes, const Film& film) {
-            writeCheckpoint(checkpointPath, checkpointKey, passes, film);
+        settings.checkpoint = [&](uint64_t passes, const Film& film, const std::string& integratorState) {
+            writeCheckpoint(checkpointPath, checkpointKey, passes, film, integratorState);
         };
     }
 

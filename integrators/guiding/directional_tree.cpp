@@ -11,7 +11,6 @@ namespace {
 
 constexpr float kOneBelow = 0x1.fffffep-1f;  // the largest float below 1
 constexpr double kOneBelowD = 0x1.fffffffffffffp-1;
-constexpr double kTwoPiD = 6.28318530717958647692;
 constexpr double kFourPiD = 12.5663706143591729539;
 
 // Into [0, 1) (NaN goes to 0), so every point of the square has a leaf.
@@ -44,21 +43,21 @@ int pick(double& u, double share) {
 
 }  // namespace
 
-// The map is evaluated in double and rounded once, so a round trip is limited by the float
-// direction only (leaves of the deepest level are about 16 floats wide).
+// The map in float: a round trip is good to a few floats of the square, which only the deepest
+// leaves (2^-20, about 16 floats wide) notice; sample() keeps its directions inside those.
 Vec2 directionToSquare(const Vec3& d) {
-    const double cosTheta = std::clamp(double(d.z), -1.0, 1.0);
-    double phi = std::atan2(double(d.y), double(d.x));
-    if (phi < 0.0) phi += kTwoPiD;
-    return unitClamp(Vec2(float((cosTheta + 1.0) * 0.5), float(phi / kTwoPiD)));
+    const float cosTheta = std::clamp(d.z, -1.f, 1.f);
+    float phi = std::atan2(d.y, d.x);
+    if (phi < 0.f) phi += 2.f * kPi;
+    return unitClamp(Vec2((cosTheta + 1.f) * 0.5f, phi * (0.5f * kInvPi)));
 }
 
 Vec3 squareToDirection(const Vec2& s) {
-    const double x = std::clamp(double(s.x), 0.0, 1.0), y = std::clamp(double(s.y), 0.0, 1.0);
-    const double cosTheta = 2.0 * x - 1.0;
-    const double sinTheta = 2.0 * std::sqrt(x * (1.0 - x));  // sqrt(1 - cos^2) without cancellation
-    const double phi = kTwoPiD * y;
-    return Vec3(float(sinTheta * std::cos(phi)), float(sinTheta * std::sin(phi)), float(cosTheta));
+    const float x = std::clamp(s.x, 0.f, 1.f), y = std::clamp(s.y, 0.f, 1.f);
+    const float cosTheta = 2.f * x - 1.f;
+    const float sinTheta = 2.f * std::sqrt(x * (1.f - x));  // sqrt(1 - cos^2) without cancellation
+    const float phi = 2.f * kPi * y;
+    return Vec3(sinTheta * std::cos(phi), sinTheta * std::sin(phi), cosTheta);
 }
 
 DirectionalTree::DirectionalTree() : nodes_(1) {}
@@ -235,8 +234,19 @@ DirectionalTree DirectionalTree::refined(float splitFraction, int maxDepth) cons
         }
     };
     build(build, 0, 0, 0.0, 0);
-    out.nodes_.shrink_to_fit();  // bytes() counts capacity; SDTree's memory cap reads it
+    out.nodes_.shrink_to_fit();  // (the memory bytes() counts, and SDTree's cap reads)
     return out;
+}
+
+void DirectionalTree::save(ByteWriter& w) const { w.putVector(nodes_); }
+
+void DirectionalTree::load(ByteReader& r) {
+    std::vector<Node> nodes = r.getVector<Node>();
+    if (nodes.empty()) throw std::runtime_error("the guiding state holds a directional tree without a root");
+    for (const Node& n : nodes)
+        for (uint32_t c : n.child)
+            if (c >= nodes.size()) throw std::runtime_error("the guiding state holds a damaged directional tree");
+    nodes_ = std::move(nodes);
 }
 
 }  // namespace lt::guiding

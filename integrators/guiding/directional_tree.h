@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <vector>
 #include "core/math.h"
+#include "integrators/guiding/serial.h"
 
 namespace lt::guiding {
 
@@ -60,7 +61,11 @@ public:
     size_t nodeCount() const { return nodes_.size(); }
     size_t leafCount() const;  // leaf quadrants: 3 nodeCount() + 1
     int depth() const;  // of the deepest node (0: the root alone)
-    size_t bytes() const { return sizeof(*this) + nodes_.capacity() * sizeof(Node); }
+    size_t bytes() const { return sizeof(*this) + nodes_.size() * sizeof(Node); }  // (vectors kept shrunk)
+
+    // Checkpoints (serial.h): the nodes as they are.
+    void save(ByteWriter& w) const;
+    void load(ByteReader& r);
 
 private:
     // Node 0 is the root. A node covers a square of the map and holds its four quadrants'

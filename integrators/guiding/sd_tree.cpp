@@ -15,6 +15,7 @@ namespace lt::guiding {
 namespace {
 
 constexpr int kMaxSpatialDepth = 48;  // below this a float cube can no longer be halved usefully
+constexpr float kBelowOne = 0x1.fffffep-1f;
 // Random-number domains of a record's two filters (Rng::forSample(seed, record index, 0, domain)).
 constexpr uint64_t kSpatialFilterDomain = 0x5ba7;
 constexpr uint64_t kDirectionalFilterDomain = 0xd12e;
@@ -97,8 +98,19 @@ uint32_t SDTree::findNode(const Vec3& p, Vec3& lo, Vec3& hi) const {
 }
 
 const GuideLeaf& SDTree::leaf(const Vec3& p) const {
-    Vec3 lo, hi;
-    return *leaves_[nodes_[findNode(p, lo, hi)].leaf];
+    // The descent of findNode in the cube's unit coordinates, each halving exact (x -> 2x or
+    // 2x - 1), without the bounds (the walks call this at every vertex).
+    const Vec3 u = (clampInto(p, lo_, hi_) - lo_) / (hi_ - lo_);
+    float c[3] = {std::min(u.x, kBelowOne), std::min(u.y, kBelowOne), std::min(u.z, kBelowOne)};
+    uint32_t n = 0;
+    while (nodes_[n].child[0]) {
+        float& x = c[nodes_[n].axis];
+        x += x;
+        const bool upper = x >= 1.f;
+        if (upper) x -= 1.f;
+        n = nodes_[n].child[upper];
+    }
+    return *leaves_[nodes_[n].leaf];
 }
 
 Vec3 SDTree::leafSize(const Vec3& p) const {
@@ -237,7 +249,7 @@ size_t SDTree::directionalNodes() const {
 }
 
 size_t SDTree::bytes() const {
-    size_t b = sizeof(*this) + nodes_.capacity() * sizeof(Node) + leaves_.capacity() * sizeof(std::unique_ptr<GuideLeaf>);
+    size_t b = sizeof(*this) + nodes_.size() * sizeof(Node) + leaves_.size() * sizeof(std::unique_ptr<GuideLeaf>);
     for (const auto& l : leaves_) b += leafBytes(*l);
     return b;
 }
@@ -264,6 +276,49 @@ std::vector<SDTree::LeafView> SDTree::leaves() const {
         stack.push_back(c0);
     }
     return out;
+}
+
+void SDTree::save(ByteWriter& w) const {
+    w.put(lo_);
+    w.put(hi_);
+    w.putVector(nodes_);
+    w.put(uint64_t(leaves_.size()));
+    for (const auto& l : leaves_) {
+        l->sampling.save(w);
+        l->building.save(w);
+        w.put(l->bsdfFraction);
+        w.put(l->theta);
+        w.put(l->adamM);
+        w.put(l->adamV);
+        w.put(l->adamSteps);
+        w.put(l->records);
+    }
+}
+
+void SDTree::load(ByteReader& r) {
+    const Vec3 lo = r.get<Vec3>(), hi = r.get<Vec3>();
+    if (lo != lo_ || hi != hi_) throw std::runtime_error("the guiding state is of a tree over another cube");
+    std::vector<Node> nodes = r.getVector<Node>();
+    const uint64_t n = r.get<uint64_t>();
+    if (nodes.empty() || n > nodes.size()) throw std::runtime_error("the guiding state holds a damaged spatial tree");
+    std::vector<std::unique_ptr<GuideLeaf>> leaves;
+    for (uint64_t i = 0; i < n; ++i) {
+        auto l = std::make_unique<GuideLeaf>();
+        l->sampling.load(r);
+        l->building.load(r);
+        l->bsdfFraction = r.get<float>();
+        l->theta = r.get<float>();
+        l->adamM = r.get<float>();
+        l->adamV = r.get<float>();
+        l->adamSteps = r.get<uint64_t>();
+        l->records = r.get<uint64_t>();
+        leaves.push_back(std::move(l));
+    }
+    for (const Node& node : nodes)
+        if (node.child[0] >= nodes.size() || node.child[1] >= nodes.size() || (!node.child[0] && node.leaf >= n))
+            throw std::runtime_error("the guiding state holds a damaged spatial tree");
+    nodes_ = std::move(nodes);
+    leaves_ = std::move(leaves);
 }
 
 }  // namespace lt::guiding

@@ -11,6 +11,7 @@
 #include <vector>
 #include "core/math.h"
 #include "integrators/guiding/directional_tree.h"
+#include "integrators/guiding/serial.h"
 
 namespace lt::guiding {
 
@@ -89,11 +90,16 @@ public:
     size_t nodeCount() const;   // spatial nodes (inner + leaves)
     size_t leafCount() const;   // spatial leaves
     size_t directionalNodes() const;  // over all leaves' sampling and building trees
-    size_t bytes() const;  // the vectors' capacities and every leaf's trees (their bytes())
+    size_t bytes() const;  // the nodes, the leaves and every leaf's trees (their bytes()); vectors kept shrunk
     const TreeSettings& settings() const { return settings_; }
     // Leaves in a fixed order (depth-first, child 0 first), with each one's bounds, for dumps.
     struct LeafView { Vec3 lo, hi; const GuideLeaf* leaf; };
     std::vector<LeafView> leaves() const;
+
+    // Checkpoints (serial.h): the whole tree, leaves and learning state included. load() throws
+    // std::runtime_error where the bytes are not a tree over this cube with these settings.
+    void save(ByteWriter& w) const;
+    void load(ByteReader& r);
 
 private:
     struct Node {

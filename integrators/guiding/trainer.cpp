@@ -173,4 +173,64 @@ Image Trainer::develop() const {
     return out;
 }
 
+std::string Trainer::state() const {
+    ByteWriter w;
+    w.put(uint32_t(0x47554944));  // "GUID"
+    w.put(int32_t(width_));
+    w.put(int32_t(height_));
+    w.put(totalPasses_);
+    w.put(int32_t(iteration_));
+    w.put(uint8_t(training_));
+    w.put(iterationStart_);
+    w.put(iterationLength_);
+    w.put(trainingPasses_);
+    w.put(passesInIteration_);
+    w.putVector(sum_);
+    w.putVector(sumSq_);
+    w.put(uint64_t(done_.size()));
+    for (const Iteration& it : done_) {
+        w.putVector(it.image.pixels);
+        w.put(it.variance);
+        w.put(it.passes);
+    }
+    w.putVector(pixelEstimate_);
+    tree_.save(w);
+    return std::move(w.out);
+}
+
+void Trainer::restore(const std::string& bytes) {
+    ByteReader r(bytes);
+    if (r.get<uint32_t>() != 0x47554944) throw std::runtime_error("not a guiding state");
+    const int w = r.get<int32_t>(), h = r.get<int32_t>();
+    if (w != width_ || h != height_) throw std::runtime_error("the guiding state is of another image size");
+    if (r.get<uint64_t>() != totalPasses_)
+        throw std::runtime_error("the guiding state is of a render to another sample count (its training schedule "
+                                 "depends on --spp): resume it with the --spp it was started with");
+    iteration_ = r.get<int32_t>();
+    training_ = r.get<uint8_t>() != 0;
+    iterationStart_ = r.get<uint64_t>();
+    iterationLength_ = r.get<uint64_t>();
+    trainingPasses_ = r.get<uint64_t>();
+    passesInIteration_ = r.get<uint64_t>();
+    sum_ = r.getVector<glm::dvec3>();
+    sumSq_ = r.getVector<double>();
+    const size_t pixels = size_t(width_) * height_;
+    if (sum_.size() != pixels || sumSq_.size() != pixels) throw std::runtime_error("the guiding state is damaged");
+    done_.clear();
+    const uint64_t n = r.get<uint64_t>();
+    for (uint64_t i = 0; i < n; ++i) {
+        Iteration it;
+        it.image = Image(width_, height_);
+        it.image.pixels = r.getVector<Color>();
+        if (it.image.pixels.size() != pixels) throw std::runtime_error("the guiding state is damaged");
+        it.variance = r.get<double>();
+        it.passes = r.get<uint64_t>();
+        done_.push_back(std::move(it));
+    }
+    pixelEstimate_ = r.getVector<float>();
+    if (!pixelEstimate_.empty() && pixelEstimate_.size() != pixels) throw std::runtime_error("the guiding state is damaged");
+    tree_.load(r);
+    if (r.p != r.end) throw std::runtime_error("the guiding state has trailing bytes");
+}
+
 }  // namespace lt::guiding

@@ -52,6 +52,11 @@ public:
     // The combined image of the passes so far.
     Image develop() const;
     int iterations() const { return iteration_ + 1; }
+    // Checkpoints (between passes): the tree, the schedule, the iterations' images and sums and
+    // the pixel estimate. restore() throws std::runtime_error where the bytes are not a state of
+    // this render (another image size, cube or sample count: the schedule depends on --spp).
+    std::string state() const;
+    void restore(const std::string& bytes);
     uint64_t trainingPasses() const { return trainingPasses_; }
 
 private:
