@@ -178,14 +178,22 @@ std::string supportedIntegrators();
 
 // Runs passes until spp or timeLimit is reached, in parallel over tiles. Deterministic for a
 // given seed whatever the thread count. `progress` (may be empty) is called after each pass.
-// The callback may develop the film (film->develop(passesDone)) for progressive error curves;
+// The callback may develop the image so far (developSoFar) for progressive error curves;
 // time spent inside the callback is excluded from `seconds` and from the time limit.
 struct Progress {
     uint64_t passesDone, passesTotal;  // passesTotal = 0 in time mode
     double seconds, timeLimit;
     uint64_t samples;
     const Film* film;
+    const Integrator* integrator;
 };
+// The image of the passes done so far, as renderImage would return it now (a guided render's
+// combination of its iterations, else the film's average).
+inline Image developSoFar(const Progress& p) {
+    Image img;
+    if (p.integrator && p.integrator->develop(img)) return img;
+    return p.film->develop(p.passesDone);
+}
 Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,
                   const std::function<void(const Progress&)>& progress = {});
 

@@ -209,7 +209,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
         if (progress) {
             auto c0 = Clock::now();
             progress(Progress{passes, totalPasses, elapsed(), settings.timeLimit,
-                              passes * uint64_t(cam.width()) * cam.height(), &film});
+                              passes * uint64_t(cam.width()) * cam.height(), &film, integrator.get()});
             excluded += std::chrono::duration<double>(Clock::now() - c0).count();
         }
         if (settings.checkpoint && settings.checkpointEvery > 0.0 && elapsed() - lastCheckpoint >= settings.checkpointEvery) {

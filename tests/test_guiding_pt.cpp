@@ -247,3 +247,21 @@ TEST_CASE("a guided render stopped and resumed from its checkpoint is the straig
         CHECK_THROWS_WITH(renderImage(scene, other, os), Catch::Contains("another sample count"));
     }
 }
+
+TEST_CASE("the study tools' image so far is the guided render's combination", "[guiding]") {
+    // convergence and biasvar read developSoFar in the progress callback: after the last pass it
+    // must be the image renderImage returns (the iterations combined), not the film's average.
+    const SceneDesc d = glossyBox(16);
+    const Scene scene(d);
+    RenderSettings s = guided("variance", 0.5);
+    s.spp = 16;
+    s.quiet = true;
+    RenderStats st;
+    Image last, average;
+    const Image img = renderImage(scene, s, st, [&](const Progress& p) {
+        last = developSoFar(p);
+        average = p.film->develop(p.passesDone);
+    });
+    CHECK(std::memcmp(last.pixels.data(), img.pixels.data(), img.pixels.size() * sizeof(Color)) == 0);
+    CHECK(std::memcmp(average.pixels.data(), img.pixels.data(), img.pixels.size() * sizeof(Color)) != 0);
+}

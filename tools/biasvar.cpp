@@ -193,7 +193,7 @@ int main(int argc, char** argv) {
                 size_t next = 0;
                 auto cb = [&](const Progress& p) {
                     if (next >= levels.size() || p.passesDone != levels[next].spp) return;
-                    Image img = p.film->develop(p.passesDone);
+                    Image img = developSoFar(p);
                     if (auto bad = findNonFinite(img))
                         throw std::runtime_error(fmt::format("non-finite pixel ({}, {})", bad->first, bad->second));
                     (k % 2 ? levels[next].odd : levels[next].even).add(img, ref);

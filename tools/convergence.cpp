@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
                 bool timeCk = p.seconds >= nextTime;
                 if (!pow2 && !timeCk) return;
                 while (nextTime <= p.seconds) nextTime *= 2;
-                record(p.passesDone, p.seconds, p.film->develop(p.passesDone));
+                record(p.passesDone, p.seconds, developSoFar(p));
             };
             fmt::print(stderr, "convergence: {} ...\n", cfg.label);
             RenderStats stats;
