@@ -107,7 +107,7 @@ const GuideLeaf& SDTree::leaf(const Vec3& p) const {
         float& x = c[nodes_[n].axis];
         x += x;
         const bool upper = x >= 1.f;
-        if (upper) x -= 1.f;
+        x -= float(upper);
         n = nodes_[n].child[upper];
     }
     return *leaves_[nodes_[n].leaf];
