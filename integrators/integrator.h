@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 #include "core/film.h"
+#include "integrators/guiding/trainer.h"
 #include "integrators/transport/jg19.h"
 #include "integrators/transport/kd13.h"
 #include "integrators/transport/opsr.h"
@@ -89,6 +90,9 @@ struct RenderSettings {
     double guidingMaxMb = 512.0;                      // cap on the trees' memory
     std::string guidingDump;                          // directory for the learned trees' images ("": none)
 };
+
+// Path guiding's settings (none: --guiding off); throws std::invalid_argument naming a bad one.
+std::optional<guiding::GuidingSettings> guidingSettingsOf(const RenderSettings& s);
 
 // Whether JG19's diffusion heuristic runs for these settings (unset: as the quality heuristic).
 inline bool regDiffusionOf(const RenderSettings& s) { return s.regDiffusion.value_or(s.regQuality); }

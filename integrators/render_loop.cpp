@@ -161,6 +161,34 @@ std::unique_ptr<Integrator> makeIntegrator(const RenderSettings& s) {
                                             fmt::join(kRegularizerNames, ", ")));
 }
 
+std::optional<guiding::GuidingSettings> guidingSettingsOf(const RenderSettings& s) {
+    if (s.guiding == "off") return std::nullopt;
+    guiding::GuidingSettings g;
+    if (s.guiding == "radiance") g.target = guiding::Target::Radiance;
+    else if (s.guiding == "variance") g.target = guiding::Target::Variance;
+    else throw std::invalid_argument("unknown guiding '" + s.guiding + "' (supported: off, radiance, variance)");
+    g.learnedFraction = s.guidingBsdfFraction < 0.0;
+    if (!g.learnedFraction) {
+        if (!(s.guidingBsdfFraction > 0.0 && s.guidingBsdfFraction <= 1.0))
+            throw std::invalid_argument("--guiding-bsdf-fraction must be in (0, 1] or 'learned'");
+        g.fixedFraction = float(s.guidingBsdfFraction);
+    }
+    if (s.guidingCombine == "inverse-variance") g.combine = guiding::Combine::InverseVariance;
+    else if (s.guidingCombine == "last") g.combine = guiding::Combine::Last;
+    else throw std::invalid_argument("unknown --guiding-combine '" + s.guidingCombine +
+                                     "' (supported: inverse-variance, last)");
+    if (!(s.guidingSpatialThreshold >= 1.0))
+        throw std::invalid_argument("--guiding-spatial-threshold must be at least 1");
+    g.tree.spatialThreshold = float(s.guidingSpatialThreshold);
+    if (!(s.guidingMaxMb > 0.0 && s.guidingMaxMb <= 1e6))
+        throw std::invalid_argument("--guiding-max-mb must be in (0, 1e6]");
+    g.tree.maxBytes = size_t(s.guidingMaxMb * double(1 << 20));
+    if (!s.strategyImages.empty())
+        throw std::invalid_argument("--strategy-images with --guiding: the guided image combines its iterations, "
+                                    "the strategy images would not sum to it");
+    return g;
+}
+
 Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,
                   const std::function<void(const Progress&)>& progress) {
     auto integrator = makeIntegrator(settings);

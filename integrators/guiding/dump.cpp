@@ -2,6 +2,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <unordered_map>
 #include <fmt/format.h>
 #include "core/image.h"
 #include "core/rng.h"
@@ -32,11 +33,9 @@ void dumpGuide(const Scene& scene, const SDTree& tree, const std::string& dir, i
     std::filesystem::create_directories(dir);
     const Camera& cam = scene.camera();
     const std::vector<SDTree::LeafView> leaves = tree.leaves();
-    auto leafIndex = [&](const GuideLeaf* l) {
-        for (size_t i = 0; i < leaves.size(); ++i)
-            if (leaves[i].leaf == l) return i;
-        return leaves.size();
-    };
+    std::unordered_map<const GuideLeaf*, size_t> index;
+    for (size_t i = 0; i < leaves.size(); ++i) index.emplace(leaves[i].leaf, i);
+    auto leafIndex = [&](const GuideLeaf* l) { return index.at(l); };
     Image map(cam.width(), cam.height());
     for (int y = 0; y < cam.height(); ++y)
         for (int x = 0; x < cam.width(); ++x) {
@@ -55,7 +54,7 @@ void dumpGuide(const Scene& scene, const SDTree& tree, const std::string& dir, i
             SurfacePoint hit;
             if (!scene.intersect(cam.generateRay(Vec2(x + 0.5f, y + 0.5f)), hit)) continue;
             const GuideLeaf& l = tree.leaf(hit.p);
-            const SDTree::LeafView& v = leaves[std::min(leafIndex(&l), leaves.size() - 1)];
+            const SDTree::LeafView& v = leaves[leafIndex(&l)];
             Image img(size, size);
             for (int j = 0; j < size; ++j)
                 for (int i = 0; i < size; ++i) {

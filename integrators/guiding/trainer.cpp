@@ -140,23 +140,25 @@ Trainer::Iteration Trainer::current() const {
 }
 
 Image Trainer::develop() const {
-    std::vector<Iteration> its = done_;
-    if (passesInIteration_ > 0) its.push_back(current());
+    const Iteration running = passesInIteration_ > 0 ? current() : Iteration{};
+    std::vector<const Iteration*> its;
+    for (const Iteration& it : done_) its.push_back(&it);
+    if (running.passes > 0) its.push_back(&running);
     if (its.empty()) return Image(width_, height_);
-    if (settings_.combine == Combine::Last) return its.back().image;
+    if (settings_.combine == Combine::Last) return its.back()->image;
     // Inverse-variance weights (Mueller 2019); an iteration of one pass has no variance estimate
     // and a zero estimate means a black image: both count as weighing like their passes would
     // at the least variance seen per pass.
     double bestPerPass = 0.0;  // the least variance * passes: the best estimate of one pass's variance
-    for (const Iteration& it : its)
-        if (it.passes >= 2 && it.variance > 0.0) {
-            const double v = it.variance * double(it.passes);
+    for (const Iteration* it : its)
+        if (it->passes >= 2 && it->variance > 0.0) {
+            const double v = it->variance * double(it->passes);
             bestPerPass = bestPerPass > 0.0 ? std::min(bestPerPass, v) : v;
         }
     std::vector<double> w(its.size());
     double total = 0.0;
     for (size_t i = 0; i < its.size(); ++i) {
-        const Iteration& it = its[i];
+        const Iteration& it = *its[i];
         if (it.passes == 0) continue;
         const double var = it.passes >= 2 && it.variance > 0.0 ? it.variance
                            : bestPerPass > 0.0                 ? bestPerPass / double(it.passes)
@@ -168,7 +170,7 @@ Image Trainer::develop() const {
     for (size_t i = 0; i < its.size(); ++i) {
         if (!(w[i] > 0.0)) continue;
         const float wi = float(w[i] / total);
-        for (size_t p = 0; p < out.pixels.size(); ++p) out.pixels[p] += its[i].image.pixels[p] * wi;
+        for (size_t p = 0; p < out.pixels.size(); ++p) out.pixels[p] += its[i]->image.pixels[p] * wi;
     }
     return out;
 }

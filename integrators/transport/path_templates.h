@@ -72,7 +72,7 @@ inline bool guidedSample(const PathVertex& v, guiding::WalkGuide& guide, int i, 
         if (bs.lobe & kDelta) return true;
         guide.pdfBsdf[i] = bs.pdfFwd.value;
         guide.pdfGuide[i] = guide.leaf[i]->sampling.pdf(bs.wi).value;
-        const float mix = alpha * bs.pdfFwd.value + (1.f - alpha) * guide.pdfGuide[i];
+        const float mix = guide.mix(i, bs.pdfFwd.value, guide.pdfGuide[i]);
         if (!(mix > 0.f)) return false;
         bs.weight *= bs.pdfFwd.value / mix;
         bs.pdfFwd = SolidAnglePdf(mix);
@@ -84,7 +84,7 @@ inline bool guidedSample(const PathVertex& v, guiding::WalkGuide& guide, int i, 
     if (isBlack(e.f)) return false;
     guide.pdfBsdf[i] = e.pdfFwd.value;
     guide.pdfGuide[i] = pdfGuide.value;
-    const float mix = alpha * e.pdfFwd.value + (1.f - alpha) * pdfGuide.value;
+    const float mix = guide.mix(i, e.pdfFwd.value, pdfGuide.value);
     if (!(mix > 0.f)) return false;
     bs.wi = wi;
     bs.weight = e.f * (std::abs(glm::dot(wi, v.shading.n)) / mix);
