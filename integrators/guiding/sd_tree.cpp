@@ -27,6 +27,19 @@ Vec3 clampInto(const Vec3& p, const Vec3& lo, const Vec3& hi) {
 }
 
 // Heap and inline bytes of one leaf (its trees' bytes() include their inline part).
+// floor(u 2^16) for u in [0, 1] (1 and above give 2^16 - 1): the first 16 binary digits of u.
+uint64_t unitBits16(float u) { return uint64_t(std::min(u, kBelowOne) * 65536.f); }
+
+// The 16 low bits of x spread to every third bit (bit i to bit 3i).
+uint64_t spread3(uint64_t x) {
+    x &= 0xffff;
+    x = (x | (x << 16)) & 0xff0000ff;
+    x = (x | (x << 8)) & 0xf00f00f00f;
+    x = (x | (x << 4)) & 0x0c30c30c30c3;
+    x = (x | (x << 2)) & 0x249249249249;
+    return x;
+}
+
 size_t leafBytes(const GuideLeaf& l) {
     return sizeof(GuideLeaf) - 2 * sizeof(DirectionalTree) + l.sampling.bytes() + l.building.bytes();
 }
@@ -98,18 +111,15 @@ uint32_t SDTree::findNode(const Vec3& p, Vec3& lo, Vec3& hi) const {
 }
 
 const GuideLeaf& SDTree::leaf(const Vec3& p) const {
-    // The descent of findNode in the cube's unit coordinates, each halving exact (x -> 2x or
-    // 2x - 1), without the bounds (the walks call this at every vertex).
+    // The descent of findNode in the cube's unit coordinates: the axis at depth d is d mod 3 and a
+    // coordinate is halved once per 3 levels, so the branch taken at depth d is bit d of the
+    // Morton code of the coordinates' 16-bit binary expansions (kMaxSpatialDepth = 3 * 16), read
+    // from the top. One key per look-up; each level is then a shift and a node load.
+    static_assert(kMaxSpatialDepth == 3 * 16);
     const Vec3 u = (clampInto(p, lo_, hi_) - lo_) / (hi_ - lo_);
-    float c[3] = {std::min(u.x, kBelowOne), std::min(u.y, kBelowOne), std::min(u.z, kBelowOne)};
+    const uint64_t key = (spread3(unitBits16(u.x)) << 2) | (spread3(unitBits16(u.y)) << 1) | spread3(unitBits16(u.z));
     uint32_t n = 0;
-    while (nodes_[n].child[0]) {
-        float& x = c[nodes_[n].axis];
-        x += x;
-        const bool upper = x >= 1.f;
-        x -= float(upper);
-        n = nodes_[n].child[upper];
-    }
+    for (int shift = kMaxSpatialDepth - 1; nodes_[n].child[0]; --shift) n = nodes_[n].child[(key >> shift) & 1];
     return *leaves_[nodes_[n].leaf];
 }
 
