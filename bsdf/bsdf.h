@@ -193,6 +193,15 @@ struct Lambert {
     }
 };
 
+// Storage for a material's model at one surface point (Bxdf::atUv): a textured material looks its
+// textures up at the point's uv and constructs the model with those values here (pbrt-v4 builds a
+// BSDF per intersection the same way). kInstanceBytes holds any leaf model; a two-sided adapter
+// keeps its inner model's instance in kInnerInstanceBytes of its own.
+inline constexpr size_t kInstanceBytes = 320, kInnerInstanceBytes = 192;
+struct alignas(16) BxdfInstance {
+    unsigned char bytes[kInstanceBytes];
+};
+
 // Local-frame BSDF model. Stateless after construction, shared by all hits on a material.
 class Bxdf {
 public:
@@ -247,6 +256,15 @@ public:
     // inline (no virtual call, no spills around one), as pbrt-v4 dispatches on a type tag. The
     // diffuse surface is the most common of all; every other model goes through the virtual calls.
     const Lambert* lambert() const { return lambert_; }
+    // Whether the model's parameters vary over the surface (textures): eval and sample then belong
+    // to atUv's instance (SurfaceBsdf asks for it), and the functions above and below describe the
+    // material as a whole: flags, roughness, alpha and continuation are the material's, the bounds
+    // hold for every point (from the textures' maxima).
+    bool textured() const { return textured_; }
+    // The model at a point with texture coordinates uv, constructed in `storage` (at least
+    // `capacity` bytes, 16-byte aligned; trivially destructible, so it is never destroyed), or this
+    // model where it is not textured. The instance is only evaluated and sampled.
+    virtual const Bxdf* atUv(const Vec2& /*uv*/, void* /*storage*/, size_t /*capacity*/) const { return this; }
     // The probability that a random walk continues from a vertex on this material (Russian
     // roulette, as SmallVCM's ContinuationProb): the largest component of the scale of its lobes
     // (reflectance, or the larger of the specular reflectance and transmittance), at most 1.
@@ -283,6 +301,7 @@ protected:
         }
     }
     const Lambert* lambert_ = nullptr;
+    bool textured_ = false;
     float continuation_ = 1.f;  // set by each model's constructor
     float plainBound_[2] = {0.f, 0.f}, smoothestBound_[2] = {0.f, 0.f}, changeableBound_[2] = {0.f, 0.f};
 };
@@ -305,7 +324,19 @@ BxdfPtr makeRoughDielectric(MicrofacetType dist, float alphaU, float alphaV, flo
                             const Color& specularReflectance = Color(1.f),
                             const Color& specularTransmittance = Color(1.f),
                             MaskingModel masking = MaskingModel::Smith);
-// Mitsuba's twosided: the inner BSDF on both sides (wo, wi mirrored when wo.z < 0).
+// Mitsuba 3's plastic and roughplastic (bsdf/plastic.cpp): a dielectric coating, eta = int_ior /
+// ext_ior, over a Lambertian base; nonlinear: the internal scattering's colour shift. The rough
+// coating is Smith-masked and isotropic; alpha below kMinAlpha gives the smooth model.
+BxdfPtr makePlastic(float eta, const Color& diffuseReflectance = Color(0.5f),
+                    const Color& specularReflectance = Color(1.f), bool nonlinear = false);
+BxdfPtr makeRoughPlastic(MicrofacetType dist, float alpha, float eta, const Color& diffuseReflectance = Color(0.5f),
+                         const Color& specularReflectance = Color(1.f), bool nonlinear = false);
+// Mitsuba's twosided: the inner BSDF on both sides (wo, wi mirrored when wo.z < 0). A two-sided
+// model made two-sided again is itself.
 BxdfPtr makeTwoSided(BxdfPtr inner);
+// Lambert's model with its reflectance from a texture at the point's uv (bsdf/diffuse.cpp), as
+// Mitsuba's diffuse takes a texture (values above 1 are kept, as a constant's are).
+class Texture;
+BxdfPtr makeTexturedDiffuse(std::shared_ptr<const Texture> reflectance);
 
 }  // namespace lt

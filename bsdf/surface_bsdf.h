@@ -12,11 +12,17 @@ namespace lt {
 inline bool gTestDisableAdjointCorrection = false;
 
 // A view: it refers to the frame and normal it is given (a path vertex's), without copying them.
+// A textured material's model at the point (Bxdf::atUv, from the point's uv) lives inside it, so
+// it is neither copied nor moved (it is built where it is used: PathVertex::bsdf()).
 class SurfaceBsdf {
 public:
-    SurfaceBsdf(const Bxdf* bxdf, const Frame& shading, const Vec3& ng) : bxdf_(bxdf), frame_(shading), ng_(ng) {}
-    SurfaceBsdf(const Bxdf*, Frame&&, const Vec3&) = delete;  // would dangle
-    SurfaceBsdf(const Bxdf*, const Frame&, Vec3&&) = delete;
+    SurfaceBsdf(const Bxdf* bxdf, const Frame& shading, const Vec3& ng, const Vec2& uv)
+        : bxdf_(bxdf->textured() ? bxdf->atUv(uv, instance_.bytes, sizeof(instance_.bytes)) : bxdf),
+          frame_(shading), ng_(ng) {}
+    SurfaceBsdf(const Bxdf*, Frame&&, const Vec3&, const Vec2&) = delete;  // would dangle
+    SurfaceBsdf(const Bxdf*, const Frame&, Vec3&&, const Vec2&) = delete;
+    SurfaceBsdf(const SurfaceBsdf&) = delete;  // bxdf_ may point into instance_
+    SurfaceBsdf& operator=(const SurfaceBsdf&) = delete;
 
     // Each direction's dot products with ng and the shading normal are computed once and serve the
     // consistency test, the local z (toLocal's n-dot) and the adjoint correction (the same
@@ -70,7 +76,7 @@ public:
                                    Vec3(glm::dot(wiW, frame_.s), glm::dot(wiW, frame_.t), wiN));
     }
 
-    const Bxdf& bxdf() const { return *bxdf_; }
+    const Bxdf& bxdf() const { return *bxdf_; }  // the model at this point (a textured material's instance)
     const Frame& frame() const { return frame_; }
     const Vec3& ng() const { return ng_; }
 
@@ -83,6 +89,7 @@ private:
         float den = std::abs(woG * wiN);
         return den > 0.f ? num / den : 0.f;
     }
+    BxdfInstance instance_;  // (first: bxdf_'s initialiser writes it; uninitialised where unused)
     const Bxdf* bxdf_;
     const Frame& frame_;
     const Vec3& ng_;

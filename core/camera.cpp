@@ -2,7 +2,13 @@
 
 namespace lt {
 
-Camera::Camera(const CameraDesc& desc) : width_(desc.width), height_(desc.height), nearClip_(desc.nearClip) {
+Camera::Camera(const CameraDesc& desc)
+    : width_(desc.width), height_(desc.height), cropX_(float(desc.cropX)), cropY_(float(desc.cropY)),
+      nearClip_(desc.nearClip) {
+    const int fullW = desc.fullWidth > 0 ? desc.fullWidth : width_;
+    const int fullH = desc.fullHeight > 0 ? desc.fullHeight : height_;
+    fullW_ = float(fullW);
+    fullH_ = float(fullH);
     pos_ = transformPoint(desc.toWorld, Vec3(0.f));
     forward_ = glm::normalize(transformVector(desc.toWorld, Vec3(0, 0, 1)));
     right_ = glm::normalize(transformVector(desc.toWorld, Vec3(1, 0, 0)));
@@ -10,7 +16,7 @@ Camera::Camera(const CameraDesc& desc) : width_(desc.width), height_(desc.height
     // Re-orthonormalise (matrices from files carry rounding).
     right_ = glm::normalize(right_ - glm::dot(right_, forward_) * forward_);
     up_ = glm::cross(forward_, right_);
-    float aspect = float(width_) / float(height_);
+    float aspect = float(fullW) / float(fullH);
     float t = std::tan(0.5f * glm::radians(desc.fovDeg));
     switch (desc.fovAxis) {
         case FovAxis::X: tanX_ = t; tanY_ = t / aspect; break;
@@ -28,10 +34,15 @@ Camera::Camera(const CameraDesc& desc) : width_(desc.width), height_(desc.height
             break;
         }
     }
-    area_ = 4.f * tanX_ * tanY_;
+    rasterToX_ = 2.f * tanX_ / float(fullW);
+    rasterToY_ = 2.f * tanY_ / float(fullH);
+    // The window, as fractions of the full film (exactly -tan and tan without a crop).
+    x0_ = tanX_ * (2.f * float(desc.cropX) / float(fullW) - 1.f);
+    x1_ = tanX_ * (2.f * float(desc.cropX + width_) / float(fullW) - 1.f);
+    yTop_ = tanY_ * (1.f - 2.f * float(desc.cropY) / float(fullH));
+    yBottom_ = tanY_ * (1.f - 2.f * float(desc.cropY + height_) / float(fullH));
+    area_ = (x1_ - x0_) * (yTop_ - yBottom_);
     invArea_ = 1.f / area_;
-    rasterToX_ = 2.f * tanX_ / float(width_);
-    rasterToY_ = 2.f * tanY_ / float(height_);
 }
 
 // The division-free form (one sqrt and one reciprocal on the chain to the ray): the camera-space
@@ -39,8 +50,8 @@ Camera::Camera(const CameraDesc& desc) : width_(desc.width), height_(desc.height
 // world direction is its image over len, cos = 1 / len, near_clip / cos = near_clip len and
 // 1 / (A cos^3) = len^3 / A.
 Ray Camera::generateRay(const Vec2& raster, SolidAnglePdf& pdf) const {
-    const float sx = raster.x * rasterToX_ - tanX_;  // (2 x / W - 1) tanX; +sx = image right = camera -X
-    const float sy = tanY_ - raster.y * rasterToY_;  // (1 - 2 y / H) tanY
+    const float sx = (raster.x + cropX_) * rasterToX_ - tanX_;  // (2 x / W - 1) tanX; +sx = image right = camera -X
+    const float sy = tanY_ - (raster.y + cropY_) * rasterToY_;  // (1 - 2 y / H) tanY
     const float len2 = sx * sx + sy * sy + 1.f;
     const float len = std::sqrt(len2);
     const float invLen = 1.f / len;
@@ -55,7 +66,7 @@ float Camera::importance(const Vec3& d) const {
     if (c <= 0.f) return 0.f;
     Vec3 onPlane = d / c;
     float x = -glm::dot(onPlane, right_), y = glm::dot(onPlane, up_);
-    if (std::abs(x) > tanX_ || std::abs(y) > tanY_) return 0.f;
+    if (x < x0_ || x > x1_ || y < yBottom_ || y > yTop_) return 0.f;
     return 1.f / (area_ * c * c * c * c);
 }
 
@@ -64,7 +75,7 @@ SolidAnglePdf Camera::directionPdf(const Vec3& d) const {
     if (c <= 0.f) return SolidAnglePdf(0.f);
     Vec3 onPlane = d / c;
     float x = -glm::dot(onPlane, right_), y = glm::dot(onPlane, up_);
-    if (std::abs(x) > tanX_ || std::abs(y) > tanY_) return SolidAnglePdf(0.f);
+    if (x < x0_ || x > x1_ || y < yBottom_ || y > yTop_) return SolidAnglePdf(0.f);
     return SolidAnglePdf(1.f / (area_ * c * c * c));
 }
 
@@ -73,7 +84,7 @@ std::optional<Vec2> Camera::rasterPosition(const Vec3& p) const {
     float z = glm::dot(v, forward_);
     if (z <= nearClip_) return std::nullopt;
     float x = -glm::dot(v, right_) / z, y = glm::dot(v, up_) / z;
-    Vec2 r((x / tanX_ + 1.f) * 0.5f * float(width_), (1.f - y / tanY_) * 0.5f * float(height_));
+    Vec2 r((x / tanX_ + 1.f) * 0.5f * fullW_ - cropX_, (1.f - y / tanY_) * 0.5f * fullH_ - cropY_);
     if (r.x < 0.f || r.y < 0.f || r.x >= float(width_) || r.y >= float(height_)) return std::nullopt;
     return r;
 }

@@ -18,7 +18,9 @@ public:
     Vec3 position() const { return pos_; }
     Vec3 forward() const { return forward_; }
 
-    // Primary ray through raster position (x, y) in [0,W]x[0,H] (y down).
+    // Raster positions are the image's, [0,W]x[0,H] (y down); with a crop window (CameraDesc) the
+    // image is that window of the full film, whose size the field of view refers to.
+    // Primary ray through raster position (x, y).
     Ray generateRay(const Vec2& raster) const {
         SolidAnglePdf pdf;
         return generateRay(raster, pdf);
@@ -42,10 +44,13 @@ public:
 
 private:
     int width_, height_;
+    float cropX_, cropY_;  // the window's offset in the full film (pixels)
+    float fullW_, fullH_;  // the full film's size (pixels)
     Vec3 pos_, forward_, right_, up_;  // right_ = camera +X (image left) in world space
-    float tanX_, tanY_;                // half extents of the image plane at distance 1
+    float tanX_, tanY_;                // half extents of the full film's plane at distance 1
+    float x0_, x1_, yTop_, yBottom_;   // the image's window on that plane (x: image right)
     float area_, invArea_;
-    float rasterToX_, rasterToY_;  // 2 tanX / W, 2 tanY / H
+    float rasterToX_, rasterToY_;  // 2 tanX / W, 2 tanY / H (W, H: the full film's)
     float nearClip_;
 };
 

@@ -38,14 +38,20 @@ LightSampleLi Light::sampleLiOther(const Scene& scene, const Vec3& refP, const V
             const Vec3 wi = sampleUniformSphere(u);
             return {refP + wi * (2.f * scene.boundsRadius()), Vec3(0.f), wi, value, AreaPdf(kUniformSpherePdf)};
         }
+        case LightType::Envmap: {
+            const EnvironmentMap::Sample e = envmap->sample(u);
+            if (!(e.pdf > 0.f)) return {};
+            return {refP + e.toSky * (2.f * scene.boundsRadius()), Vec3(0.f), e.toSky, e.value, AreaPdf(e.pdf)};
+        }
     }
     return {};
 }
 
-AreaPdf Light::pdfLi(const Scene&, const Vec3&, const Vec3&, const Vec3&, const Vec3&) const {
+AreaPdf Light::pdfLi(const Scene&, const Vec3&, const Vec3&, const Vec3&, const Vec3& wi) const {
     switch (type) {
         case LightType::Area: return AreaPdf(invArea);
         case LightType::Constant: return AreaPdf(kUniformSpherePdf);
+        case LightType::Envmap: return AreaPdf(envmap->pdf(wi));
         default: return AreaPdf(0.f);  // delta lights cannot be hit
     }
 }
@@ -56,7 +62,8 @@ AreaPdf Light::pdfLePos(const Scene& scene) const {
         case LightType::Point:
         case LightType::Spot: return AreaPdf(1.f);
         case LightType::Directional:
-        case LightType::Constant: return AreaPdf(1.f / (kPi * sqr(scene.geometryRadius())));
+        case LightType::Constant:
+        case LightType::Envmap: return AreaPdf(1.f / (kPi * sqr(scene.geometryRadius())));
     }
     return AreaPdf(0.f);
 }
@@ -69,6 +76,7 @@ SolidAnglePdf Light::pdfLeDir(const Vec3& n, const Vec3& dir) const {
             return SolidAnglePdf(glm::dot(dir, direction) > cosCutoff ? 1.f / coneSolidAngle(cutoff) : 0.f);
         case LightType::Directional: return SolidAnglePdf(1.f);  // delta direction
         case LightType::Constant: return SolidAnglePdf(kUniformSpherePdf);
+        case LightType::Envmap: return SolidAnglePdf(envmap->pdf(-dir));  // dir travels from the sky
     }
     return SolidAnglePdf(0.f);
 }
@@ -103,16 +111,25 @@ LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& 
             return s;
         }
         case LightType::Directional:
-        case LightType::Constant: {
-            s.dir = type == LightType::Directional ? direction : -sampleUniformSphere(uDir);
+        case LightType::Constant:
+        case LightType::Envmap: {
+            s.value = value;
+            s.pdfDir = SolidAnglePdf(type == LightType::Directional ? 1.f : kUniformSpherePdf);
+            if (type == LightType::Envmap) {
+                const EnvironmentMap::Sample e = envmap->sample(uDir);
+                if (!(e.pdf > 0.f)) return s;  // (pdfPos 0: no sample)
+                s.dir = -e.toSky;
+                s.value = e.value;
+                s.pdfDir = SolidAnglePdf(e.pdf);
+            } else {
+                s.dir = type == LightType::Directional ? direction : -sampleUniformSphere(uDir);
+            }
             Frame f(s.dir);
             // On the disk facing dir that covers the geometry's bounding sphere, behind it.
             Vec2 d = sampleConcentricDisk(uPos) * scene.geometryRadius();
             s.p = scene.geometryCenter() - s.dir * scene.geometryRadius() + f.s * d.x + f.t * d.y;
             s.n = s.dir;
-            s.value = value;
             s.pdfPos = pdfLePos(scene);
-            s.pdfDir = SolidAnglePdf(type == LightType::Directional ? 1.f : kUniformSpherePdf);
             return s;
         }
     }
@@ -127,6 +144,7 @@ float Light::power(const Scene& scene) const {
         case LightType::Spot: return coneSolidAngle(0.5f * (cutoff + beamWidth)) * luminance(value);
         case LightType::Directional: return kPi * r2 * luminance(value);
         case LightType::Constant: return 4.f * kPi * kPi * r2 * luminance(value);
+        case LightType::Envmap: return kPi * r2 * envmap->luminanceIntegral();
     }
     return 0.f;
 }

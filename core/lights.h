@@ -1,10 +1,14 @@
-// Light sources: area (on meshes and spheres), point, spot, directional, constant environment.
-// All emit RGB. Densities are typed: positions in area measure, directions in solid angle.
-// For lights at infinity (directional, constant) a "position" is a direction; their NEE pdf is a
-// solid-angle pdf carried in the AreaPdf slot (the measure of a vertex at infinity), and emission
-// positions are sampled on a disk of the scene's bounding-sphere radius.
+// Light sources: area (on meshes and spheres), point, spot, directional, constant environment,
+// environment map (core/envmap.h). All emit RGB. Densities are typed: positions in area measure,
+// directions in solid angle.
+// For lights at infinity (directional, constant, envmap) a "position" is a direction; their NEE pdf
+// is a solid-angle pdf carried in the AreaPdf slot (the measure of a vertex at infinity), and
+// emission positions are sampled on a disk of the scene's bounding-sphere radius. An environment's
+// emission direction is sampled with the density of its NEE direction: pdfLeDir(dir) ==
+// pdfLi(-dir), as the vertex at infinity has one density for every technique.
 #pragma once
 #include <vector>
+#include "core/envmap.h"
 #include "core/math.h"
 #include "core/sampling.h"
 #include "core/scene_desc.h"
@@ -13,7 +17,7 @@ namespace lt {
 
 class Scene;
 
-enum class LightType { Area, Point, Spot, Directional, Constant };
+enum class LightType { Area, Point, Spot, Directional, Constant, Envmap };
 
 // A point on a light, sampled for next-event estimation from a reference point.
 struct LightSampleLi {
@@ -21,7 +25,7 @@ struct LightSampleLi {
     Vec3 n{0.f};        // surface normal (area lights), zero otherwise
     Vec3 wi{0.f};       // lights at infinity: unit direction from the reference point to the light
                         // (finite lights: zero; the connection derives direction and distance from p)
-    Color value{0.f};   // radiance (area, constant), intensity (point, spot) or irradiance (directional)
+    Color value{0.f};   // radiance (area, constant, envmap), intensity (point, spot) or irradiance (directional)
     AreaPdf pdfPos;     // density of the point (area; solid angle for infinite lights; 1 for delta positions)
 };
 
@@ -48,6 +52,7 @@ public:
     const EmitterTriangle* tris = nullptr;
     const Distribution1D* triDist = nullptr;
     const SphereDesc* sphere = nullptr;
+    const EnvironmentMap* envmap = nullptr;  // Envmap (owned by the scene description)
     Vec3 position{0.f}, direction{0, 0, 1};  // point/spot; spot axis; directional travel direction
     float cosCutoff = 1.f, cutoff = 0.f, beamWidth = 0.f;  // spot, radians
     float area = 0.f, invArea = 0.f;  // area lights (set by the scene)
@@ -55,16 +60,22 @@ public:
     bool isDeltaPosition() const { return type == LightType::Point || type == LightType::Spot; }
     bool isDeltaDirection() const { return type == LightType::Directional; }
     bool isDelta() const { return isDeltaPosition() || isDeltaDirection(); }
-    bool isInfinite() const { return type == LightType::Directional || type == LightType::Constant; }
+    bool isInfinite() const {
+        return type == LightType::Directional || type == LightType::Constant || type == LightType::Envmap;
+    }
+    // A light at infinity that a ray leaving the scene hits (Mitsuba's "environment emitter").
+    bool isEnvironment() const { return type == LightType::Constant || type == LightType::Envmap; }
     // Can a random walk hit this light?
-    bool isHittable() const { return type == LightType::Area || type == LightType::Constant; }
+    bool isHittable() const { return type == LightType::Area || isEnvironment(); }
 
-    // Radiance leaving a point of an area light with normal n in direction w; for the constant
-    // light, radiance arriving from direction -w (w points from the scene towards the sky).
+    // Radiance leaving a point of an area light with normal n in direction w; for the environments,
+    // radiance travelling along w into the scene (w points from the sky towards the scene: it
+    // arrives from the sky direction -w).
     Color Le(const Vec3& n, const Vec3& w) const {
         switch (type) {
             case LightType::Area: return glm::dot(n, w) > 0.f ? value : Color(0.f);  // one-sided
             case LightType::Constant: return value;
+            case LightType::Envmap: return envmap->eval(-w);
             default: return Color(0.f);
         }
     }

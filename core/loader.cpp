@@ -8,9 +8,12 @@
 #include <set>
 #include "bsdf/ior.h"
 #include "bsdf/roughness_bound.h"
+#include "core/envmap.h"
 #include "core/film.h"
+#include "core/image.h"
 #include "core/loader_xml.h"
 #include "core/mesh_io.h"
+#include "core/texture/texture_factory.h"
 
 namespace lt {
 
@@ -21,10 +24,12 @@ using xml::Props;
 using xml::joinList;
 
 const std::vector<std::string> kBsdfTypes = {"diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric",
-                                             "twosided"};
+                                             "plastic", "roughplastic", "twosided"};
 const std::vector<std::string> kShapeTypes = {"obj", "ply", "serialized", "rectangle", "cube", "disk", "sphere"};
-const std::vector<std::string> kEmitterTypes = {"area (inside a shape)", "point", "spot", "directional", "constant"};
-const std::vector<std::string> kIntegratorTypes = {"path", "bdpt", "vcm", "ptracer", "ppm", "sppm (as ppm)"};
+const std::vector<std::string> kEmitterTypes = {"area (inside a shape)", "point", "spot", "directional", "constant",
+                                                "envmap"};
+const std::vector<std::string> kIntegratorTypes = {"path", "bdpt", "vcm", "ptracer", "ppm", "sppm (as ppm)",
+                                                   "direct (as path with max_depth 2)", "moment (its nested integrator)"};
 
 bool isIn(const std::vector<std::string>& v, const std::string& s) { return std::find(v.begin(), v.end(), s) != v.end(); }
 
@@ -51,10 +56,15 @@ public:
             else if (e.tag == "bsdf") bsdfIndex(e);
             else if (e.tag == "shape") shape(e);
             else if (e.tag == "emitter") topEmitter(e);
+            else if (e.tag == "sampler" && e.attr("id")) declaredSamplers_.push_back(&e);  // read where referenced
+            else if (e.tag == "texture" && e.attr("id")) texture(e);  // checked now, used where referenced
             else
                 xml::fail(e, fmt::format("unsupported element <{}> at the top level of the scene (supported: integrator, "
-                                         "sensor, bsdf, shape, emitter, default, include, path)", e.tag));
+                                         "sensor, bsdf, shape, emitter, sampler or texture with an id, default, include, path)",
+                                         e.tag));
         }
+        for (const Elem* smp : declaredSamplers_)
+            if (!referencedSamplers_.count(smp)) warn(*smp, "sampler declared with an id but used by no sensor: ignored");
         for (const Elem* a : declaredAreas_)
             if (!referencedAreas_.count(a)) warn(*a, "area emitter declared with an id but used by no shape: ignored");
         if (!sawSensor_) out_.warnings.push_back(fmt::format("{}: no <sensor>: using the default camera", out_.path));
@@ -70,6 +80,9 @@ private:
     std::set<const Elem*> building_;
     std::vector<const Elem*> declaredAreas_;
     std::set<const Elem*> referencedAreas_;
+    std::map<const Elem*, TexturePtr> textures_;
+    std::vector<const Elem*> declaredSamplers_;
+    std::set<const Elem*> referencedSamplers_;
     int defaultBsdf_ = -1;
     bool sawSensor_ = false, sawIntegrator_ = false;
 
@@ -104,6 +117,29 @@ private:
         sawIntegrator_ = true;
         std::string t = e.type();
         IntegratorDesc& I = out_.integrator;
+        if (t == "moment") {  // Mitsuba's moment wraps the integrator that renders: that one is ours
+            Props m(e);
+            if (m.objects.size() != 1 || deref(*m.objects[0]).tag != "integrator")
+                xml::fail(e, "moment needs one nested <integrator> (the one that renders)");
+            m.finish();
+            warn(e, "moment: the nested integrator renders the image (no second moment is written)");
+            sawIntegrator_ = false;
+            integrator(deref(*m.objects[0]));
+            return;
+        }
+        if (t == "direct") {
+            // Mitsuba's direct illumination: emitters seen directly and lit once, with next-event
+            // estimation and BSDF sampling under MIS: the path tracer's paths of up to 2 segments.
+            Props p(e);
+            I.type = "path";
+            I.maxDepth = 2;
+            I.hideEmitters = p.getBool("hide_emitters", false);
+            p.ignore({"shading_samples", "emitter_samples", "bsdf_samples"}, &out_.warnings);
+            noObjects(p, "an integrator has no nested plugins here");
+            p.finish();
+            warn(e, "direct is rendered as path with max_depth 2 (the same paths and expected value)");
+            return;
+        }
         bool known = isIn({"path", "bdpt", "vcm", "ptracer", "ppm", "sppm"}, t);
         if (!known)
             warn(e, fmt::format("integrator type '{}' is not supported: falling back to 'path' (the CLI's integrator; "
@@ -221,7 +257,9 @@ private:
         if (I.type != "vcm" && I.type != "ppm" && (p.has(rname) || p.has("alpha")))
             warn(e, fmt::format("radius and alpha are used only by vcm and ppm: ignored by {}", I.type));
         if (I.type == "bdpt") p.ignore({"light_image", "sample_direct"}, &out_.warnings);
-        if (I.type == "ptracer") p.ignore({"samples_per_pass"}, &out_.warnings);
+        // Mitsuba parameters that change nothing here (a pass is one sample per pixel; there is
+        // no time-out per pass; normals are always checked for consistency, surface_bsdf.h).
+        p.ignore({"samples_per_pass", "timeout", "strict_normals", "strictNormals"}, &out_.warnings);
         noObjects(p, "an integrator has no nested plugins here");
         p.finish();
     }
@@ -271,18 +309,31 @@ private:
         if (!(farClip > C.nearClip)) p.failAt("far_clip", fmt::format("must be > near_clip (got {})", farClip));
         p.requirePositive("focus_distance", p.getFloat("focus_distance", 1.f));  // pinhole: ignored
         C.toWorld = p.getTransform("to_world");
+        // Mitsuba refuses a camera frame with scale (an axis not of unit length) or a projective
+        // row, and accepts a sheared one, which the camera orthonormalises (core/camera.cpp:
+        // forward kept).
         glm::mat3 l(C.toWorld);
-        float err = std::abs(C.toWorld[0][3]) + std::abs(C.toWorld[1][3]) + std::abs(C.toWorld[2][3]) +
-                    std::abs(C.toWorld[3][3] - 1.f);
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) err += std::abs(glm::dot(l[i], l[j]) - (i == j ? 1.f : 0.f));
-        if (!(err < 1e-3f))
-            p.failAt("to_world", "the camera transform must be rigid (rotations, mirroring, translations; no scale or shear)");
+        float scaleErr = std::abs(C.toWorld[0][3]) + std::abs(C.toWorld[1][3]) + std::abs(C.toWorld[2][3]) +
+                         std::abs(C.toWorld[3][3] - 1.f);
+        float shearErr = 0.f;
+        for (int i = 0; i < 3; ++i) {
+            scaleErr += std::abs(glm::dot(l[i], l[i]) - 1.f);
+            for (int j = i + 1; j < 3; ++j) shearErr += std::abs(glm::dot(l[i], l[j]));
+        }
+        if (!(scaleErr < 1e-3f))
+            p.failAt("to_world", "the camera transform must be rigid up to shear: no scale factors (Mitsuba refuses "
+                                 "them too)");
+        if (!(shearErr < 1e-3f)) warn(e, "the camera transform is sheared: its axes are orthonormalised (forward kept)");
         bool sawFilm = false, sawSampler = false;
-        for (const Elem* o : p.objects) {
-            if (o->tag == "film" && !sawFilm) film(*o), sawFilm = true;
-            else if (o->tag == "sampler" && !sawSampler) sampler(*o), sawSampler = true;
-            else xml::fail(*o, "unexpected element inside <sensor> (supported: one film, one sampler)");
+        for (const Elem* r : p.objects) {
+            const Elem* o = &deref(*r);  // a sampler may be declared at the top level and referenced
+            if (o->tag == "film" && !sawFilm && o == r) film(*o), sawFilm = true;
+            else if (o->tag == "sampler" && !sawSampler) {
+                sampler(*o);
+                sawSampler = true;
+                referencedSamplers_.insert(o);
+            } else
+                xml::fail(*r, "unexpected element inside <sensor> (supported: one film, one sampler or a <ref> to one)");
         }
         p.finish();
     }
@@ -298,6 +349,25 @@ private:
         C.height = p.getInt("height", 576);
         if (C.width <= 0 || C.width > 65536) p.failAt("width", fmt::format("must be in 1..65536 (got {})", C.width));
         if (C.height <= 0 || C.height > 65536) p.failAt("height", fmt::format("must be in 1..65536 (got {})", C.height));
+        // Mitsuba's crop window: the image is the window, the field of view the full film's.
+        if (p.has("crop_offset_x") || p.has("crop_offset_y") || p.has("crop_width") || p.has("crop_height")) {
+            C.fullWidth = C.width;
+            C.fullHeight = C.height;
+            C.cropX = p.getInt("crop_offset_x", 0);
+            C.cropY = p.getInt("crop_offset_y", 0);
+            if (C.cropX < 0 || C.cropX >= C.fullWidth)
+                p.failAt("crop_offset_x", fmt::format("must be in 0..{} (the film's width - 1; got {})", C.fullWidth - 1, C.cropX));
+            if (C.cropY < 0 || C.cropY >= C.fullHeight)
+                p.failAt("crop_offset_y", fmt::format("must be in 0..{} (the film's height - 1; got {})", C.fullHeight - 1, C.cropY));
+            C.width = p.getInt("crop_width", C.fullWidth - C.cropX);
+            C.height = p.getInt("crop_height", C.fullHeight - C.cropY);
+            if (C.width < 1 || C.cropX + C.width > C.fullWidth)
+                p.failAt("crop_width", fmt::format("must be in 1..{} (the film's width - crop_offset_x; got {})",
+                                                   C.fullWidth - C.cropX, C.width));
+            if (C.height < 1 || C.cropY + C.height > C.fullHeight)
+                p.failAt("crop_height", fmt::format("must be in 1..{} (the film's height - crop_offset_y; got {})",
+                                                    C.fullHeight - C.cropY, C.height));
+        }
         // A film no machine of ours can hold is refused here, before anything is allocated.
         if (int64_t(C.width) * C.height > Film::kMaxPixels)
             p.failAt("width", fmt::format("the film of {} x {} pixels is too large: at most {} pixels (8192 x 8192), "
@@ -348,6 +418,86 @@ private:
             noObjects(p, "a sampler has no nested plugins");
             p.finish();
         }
+    }
+
+    // ---- textures --------------------------------------------------------------------------
+    // A plugin's texture parameters: its nested <texture name="..."> elements and <ref name="..."
+    // id="..."> to textures declared elsewhere, by parameter name; the other nested plugins are
+    // left in p.objects.
+    std::map<std::string, const Elem*> textureParams(Props& p) {
+        std::map<std::string, const Elem*> out;
+        std::vector<const Elem*> rest;
+        for (const Elem* o : p.objects) {
+            const Elem& target = deref(*o);
+            if (target.tag != "texture") {
+                rest.push_back(o);
+                continue;
+            }
+            const std::string* name = o->attr("name");
+            if (!name || name->empty())
+                xml::fail(*o, fmt::format("a texture inside {} needs a name attribute (the parameter it gives)",
+                                          p.owner.describe()));
+            if (p.has(*name)) p.failAt(*name, "given both as a value and as a texture");
+            if (!out.emplace(*name, &target).second) xml::fail(*o, fmt::format("texture '{}' given twice", *name));
+        }
+        p.objects = rest;
+        return out;
+    }
+
+    // Refuses the textures a plugin has no use for (yet), naming the parameters that take one.
+    static void noTexturesBut(const Props& p, const std::map<std::string, const Elem*>& textures,
+                              const std::vector<std::string>& supported) {
+        for (const auto& [name, e] : textures)
+            if (!isIn(supported, name))
+                xml::fail(*e, fmt::format("{} does not take a texture for '{}' here{}: give a value", p.owner.describe(), name,
+                                          supported.empty() ? std::string()
+                                                            : fmt::format(" (textured parameters: {})", joinList(supported))));
+    }
+
+    // 2D texture-coordinate transform of Mitsuba's to_uv (a 4x4 transform applied to (u, v, 0, 1)).
+    static glm::mat3 uvTransform(Props& p) {
+        const Mat4 m = p.getTransform("to_uv");
+        return glm::mat3(Vec3(m[0].x, m[0].y, 0.f), Vec3(m[1].x, m[1].y, 0.f), Vec3(m[3].x, m[3].y, 1.f));
+    }
+
+    TexturePtr texture(const Elem& e) {
+        if (auto it = textures_.find(&e); it != textures_.end()) return it->second;
+        const std::string t = e.type();
+        Props p(e);
+        TexturePtr tex;
+        if (t == "checkerboard") {
+            const Color c0 = nonNegColor(p, "color0", Color(0.4f)), c1 = nonNegColor(p, "color1", Color(0.2f));
+            tex = makeCheckerboard(c0, c1, uvTransform(p));
+        } else if (t == "bitmap") {
+            if (!p.has("filename")) xml::fail(e, "parameter 'filename' is required for a bitmap texture");
+            const std::string filename = p.getString("filename", "");
+            std::string tried;
+            const std::string path = xml::resolveFile(doc_, e, filename, tried);
+            if (path.empty()) p.failAt("filename", fmt::format("image file '{}' not found (looked for: {})", filename, tried));
+            const std::string filter = xml::lower(p.getString("filter_type", "bilinear"));
+            if (filter != "bilinear" && filter != "nearest")
+                p.failAt("filter_type", fmt::format("unknown filter '{}' (supported: bilinear, nearest)", filter));
+            const std::string wrap = xml::lower(p.getString("wrap_mode", "repeat"));
+            if (wrap != "repeat" && wrap != "mirror" && wrap != "clamp")
+                p.failAt("wrap_mode", fmt::format("unknown wrap mode '{}' (supported: repeat, mirror, clamp)", wrap));
+            const bool raw = p.getBool("raw", false);
+            const glm::mat3 toUv = uvTransform(p);
+            p.ignore({"accel"}, &out_.warnings);  // (Mitsuba: hardware texture filtering on GPUs)
+            try {
+                tex = makeBitmap(loadTextureImage(path, raw),
+                                 filter == "nearest" ? TextureFilter::Nearest : TextureFilter::Bilinear,
+                                 wrap == "mirror" ? TextureWrap::Mirror : wrap == "clamp" ? TextureWrap::Clamp : TextureWrap::Repeat,
+                                 toUv, filename);
+            } catch (const ImageError& err) {
+                p.failAt("filename", err.what());
+            }
+        } else {
+            xml::fail(e, fmt::format("unsupported texture type '{}' (supported: bitmap, checkerboard)", t));
+        }
+        noObjects(p, "a texture has no nested plugins");
+        p.finish();
+        textures_[&e] = tex;
+        return tex;
     }
 
     // ---- bsdfs -----------------------------------------------------------------------------
@@ -430,6 +580,35 @@ private:
         return c;
     }
 
+    // Mitsuba 3's plastic and roughplastic, with its parameters and defaults (polypropylene in air,
+    // Beckmann alpha 0.1); roughplastic is isotropic and Smith-masked there.
+    BxdfPtr buildPlastic(const Elem& e, Props& p, bool rough) {
+        MicrofacetType dist = MicrofacetType::Beckmann;
+        float alpha = 0.f;
+        if (rough) {
+            for (const char* n : {"alpha_u", "alpha_v"})
+                if (p.has(n)) p.failAt(n, "roughplastic is isotropic (as in Mitsuba 3): give alpha");
+            float av = 0.f;
+            MaskingModel masking = MaskingModel::Smith;
+            roughness(p, dist, alpha, av, masking);
+            if (masking != MaskingModel::Smith) p.failAt("masking", "roughplastic supports the Smith masking only");
+        }
+        Color diffR = nonNegColor(p, "diffuse_reflectance", Color(0.5f));
+        Color specR = nonNegColor(p, "specular_reflectance", Color(1.f));
+        float intIor = ior(p, "int_ior", 1.49f), extIor = ior(p, "ext_ior", 1.000277f);
+        if (rough && intIor == extIor)
+            p.failAt("int_ior", "the interior and exterior indices of refraction must differ (as in Mitsuba 3)");
+        bool nonlinear = p.getBool("nonlinear", false);
+        if (maxComp(diffR) > 1.f) {
+            // (the nonlinear internal scattering R / (1 - Fdr R) diverges for R >= 1 / Fdr)
+            if (nonlinear) p.failAt("diffuse_reflectance", "must be <= 1 with nonlinear true");
+            warn(e, "diffuse_reflectance > 1 does not conserve energy");
+        }
+        p.finish();
+        if (rough) return makeRoughPlastic(dist, alpha, intIor / extIor, diffR, specR, nonlinear);
+        return makePlastic(intIor / extIor, diffR, specR, nonlinear);
+    }
+
     BxdfPtr buildBsdf(const Elem& e) {
         std::string t = e.type();
         if (!isIn(kBsdfTypes, t))
@@ -444,13 +623,20 @@ private:
             p.finish();
             return makeTwoSided(bxdf(inner));
         }
-        noObjects(p, "textures and nested plugins are not supported; use constant values");
+        const std::map<std::string, const Elem*> textures = textureParams(p);
+        noObjects(p, "nested plugins other than textures are not supported here");
+        noTexturesBut(p, textures, t == "diffuse" ? std::vector<std::string>{"reflectance"} : std::vector<std::string>{});
         if (t == "diffuse") {
+            if (auto it = textures.find("reflectance"); it != textures.end()) {
+                p.finish();
+                return makeTexturedDiffuse(texture(*it->second));
+            }
             Color r = nonNegColor(p, "reflectance", Color(0.5f));
             if (maxComp(r) > 1.f) warn(e, "reflectance > 1 does not conserve energy");
             p.finish();
             return makeDiffuse(r);
         }
+        if (t == "plastic" || t == "roughplastic") return buildPlastic(e, p, t == "roughplastic");
         bool rough = t.rfind("rough", 0) == 0;
         MicrofacetType dist = MicrofacetType::Beckmann;
         float au = 0.f, av = 0.f;
@@ -510,8 +696,13 @@ private:
             declaredAreas_.push_back(&e);
             return;
         }
-        if (!isIn({"point", "spot", "directional", "constant"}, t))
+        if (!isIn({"point", "spot", "directional", "constant", "envmap"}, t))
             xml::fail(e, fmt::format("unsupported emitter type '{}' (supported: {})", t, joinList(kEmitterTypes)));
+        if (t == "constant" || t == "envmap")  // a ray leaving the scene sees one light (core/scene.cpp)
+            for (const EmitterDesc& o : out_.emitters)
+                if (o.type == EmitterType::Constant || o.type == EmitterType::Envmap)
+                    xml::fail(e, fmt::format("only one environment emitter (constant or envmap) per scene, as in "
+                                             "Mitsuba 3 (the other one: {})", o.source));
         Props p(e);
         EmitterDesc d;
         d.source = e.where();
@@ -550,6 +741,26 @@ private:
             }
             if (!(glm::length(dir) > 0.f)) p.failAt(p.has("direction") ? "direction" : "to_world", "zero direction");
             d.direction = glm::normalize(dir);
+        } else if (t == "envmap") {
+            // Mitsuba 3's envmap (core/envmap.h): filename, scale, to_world, mis_compensation
+            // (its `bitmap` and `data` exist only through its Python/C++ API).
+            d.type = EmitterType::Envmap;
+            if (!p.has("filename")) xml::fail(e, "parameter 'filename' is required for an envmap emitter");
+            const std::string filename = p.getString("filename", "");
+            std::string tried;
+            d.filename = xml::resolveFile(doc_, e, filename, tried);
+            if (d.filename.empty())
+                p.failAt("filename", fmt::format("environment map '{}' not found (looked for: {})", filename, tried));
+            d.scale = p.getFloat("scale", 1.f);
+            if (!(std::isfinite(d.scale) && d.scale >= 0.f))
+                p.failAt("scale", fmt::format("must be finite and >= 0 (got {})", d.scale));
+            d.toWorld = p.getTransform("to_world");
+            if (!isOrthonormal(d.toWorld))
+                p.failAt("to_world", "must be a rotation (Mitsuba applies it to unit directions: no scale or shear; "
+                                     "a translation is ignored)");
+            if (p.getBool("mis_compensation", false))
+                warn(e, "mis_compensation is ignored: the map is sampled in proportion to its luminance times "
+                        "sin(theta), as with mis_compensation false");
         } else {
             d.type = EmitterType::Constant;
             d.value = nonNegColor(p, "radiance", Color(1.f));
@@ -557,6 +768,15 @@ private:
         p.ignore({"sampling_weight"});
         noObjects(p, "textures and nested plugins are not supported");
         p.finish();
+        if (d.type == EmitterType::Envmap) {  // (read once the parameters are known to be valid)
+            try {
+                d.envmap = loadEnvironmentMap(d.filename, d.toWorld, d.scale);
+            } catch (const ImageError& ex) {
+                p.failAt("filename", ex.what());
+            } catch (const EnvmapError& ex) {
+                p.failAt("filename", ex.what());
+            }
+        }
         out_.emitters.push_back(d);
     }
 

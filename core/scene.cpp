@@ -107,6 +107,16 @@ float meanCurvature(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& 
 }
 
 Scene::Scene(const SceneDesc& desc) : desc_(desc) {
+    // One environment (a ray leaving the scene sees one light: the walks' vertex at infinity), as
+    // Mitsuba 3 ("Only one environment emitter can be specified per scene"). Checked before any
+    // Embree object exists (a constructor that throws runs no destructor).
+    if (std::count_if(desc_.emitters.begin(), desc_.emitters.end(), [](const EmitterDesc& e) {
+            return e.type == EmitterType::Constant || e.type == EmitterType::Envmap;
+        }) > 1)
+        throw std::invalid_argument("only one environment emitter (constant or envmap) per scene, as in Mitsuba 3");
+    for (const EmitterDesc& e : desc_.emitters)
+        if (e.type == EmitterType::Envmap && !e.envmap)
+            throw std::invalid_argument("an envmap emitter without its map (" + e.source + ")");
     device_ = rtcNewDevice("");
     if (!device_) throw std::runtime_error("could not create the Embree device");
     rtcSetDeviceErrorFunction(device_, embreeError, nullptr);
@@ -262,6 +272,10 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
                 l.direction = glm::normalize(ed.direction);
                 break;
             case EmitterType::Constant: l.type = LightType::Constant; break;
+            case EmitterType::Envmap:
+                l.type = LightType::Envmap;
+                l.envmap = ed.envmap.get();
+                break;
         }
         emitterToLight[e] = int(lights_.size());
         lights_.push_back(l);
@@ -332,7 +346,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     for (const Light& l : lights_) power.push_back(l.type == LightType::Area && l.area <= 0.f ? 0.f : l.power(*this));
     lightDist_ = Distribution1D(power);
     for (const Light& l : lights_)
-        if (l.type == LightType::Constant) envLights_.push_back(&l);
+        if (l.isEnvironment()) envLights_.push_back(&l);  // (at most one: checked above)
     // Materials and emitters per Embree geometry (lights_ no longer changes: pointers are stable).
     for (GeomInfo& gi : geoms_) {
         int bsdf = -1, light = -1;
@@ -341,6 +355,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         gi.bxdf = bsdf >= 0 ? desc_.bsdfs[bsdf].get() : nullptr;
         gi.light = light >= 0 ? &lights_[light] : nullptr;
         gi.deltaBsdf = gi.bxdf && gi.bxdf->isDelta();
+        gi.textured = gi.bxdf && gi.bxdf->textured();
         gi.roughness = gi.bxdf ? gi.bxdf->roughness() : 1.f;
     }
 }
@@ -471,7 +486,7 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
             if (len > 0.f && std::isfinite(len)) ns = _mm_div_ps(n, _mm_set1_ps(len));
             hit.curvature = tn.curvature;
         }
-        if constexpr (kFull) {
+        if (kFull || gi.textured) {
             if (gi.uvs) {
                 const uint32_t* idx = gi.indices + 3 * prim;
                 hit.uv = b0 * gi.uvs[idx[0]] + b1 * gi.uvs[idx[1]] + b2 * gi.uvs[idx[2]];
@@ -486,10 +501,13 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
         p = set3(s.center + s.radius * n);  // re-project onto the sphere
         if (s.flipNormals) n = -n;
         ns = ng = set3(n);
-        if constexpr (kFull) {
-            Vec3 dl = glm::normalize(d);
-            hit.uv = Vec2(std::atan2(dl.y, dl.x) * (0.5f * kInvPi) + 0.5f,
-                          std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
+        if (kFull || gi.textured) {
+            // Mitsuba's sphere: u = phi / (2 pi) with phi in [0, 2 pi), v = theta / pi, about the
+            // sphere's local z (a rotation in the sphere's to_world is not kept: SphereDesc).
+            const Vec3 dl = glm::normalize(d);
+            float phi = std::atan2(dl.y, dl.x);
+            if (phi < 0.f) phi += 2.f * kPi;
+            hit.uv = Vec2(phi * (0.5f * kInvPi), std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
         }
     }
     // p and ng as whole 16-byte stores, in this order (each spills one float into the next field,

@@ -35,11 +35,13 @@ struct SurfacePoint {
     // |mean curvature| of the surface here (1/length; JG19's diffusion heuristic): 1/r on a
     // sphere, 0 on a flat mesh, on a mesh with vertex normals the triangle's estimate (MeshTri).
     float curvature = 0.f;
+    // Texture coordinates (Mitsuba's parameterisation of the shape; (0, 0) without one). The
+    // walk's form of a hit writes them only where the material is textured.
+    Vec2 uv{0.f};
 };
 
 struct SurfaceHit : SurfacePoint {
     float t = kInf;
-    Vec2 uv{0.f};
     int geomId = -1, primId = -1;
 };
 
@@ -152,6 +154,7 @@ private:
         const Bxdf* bxdf = nullptr;
         const Light* light = nullptr;
         bool deltaBsdf = false;
+        bool textured = false;  // the material's model varies with uv (Bxdf::textured)
         float roughness = 1.f;
         float curvature = 0.f;  // a sphere's 1/r
     };

@@ -3,6 +3,7 @@
 // +X to the image left and +Y up; area emitters emit on the side their normal points to.
 #pragma once
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -31,7 +32,9 @@ struct SphereDesc {
     int emitter = -1;
 };
 
-enum class EmitterType { Area, Point, Spot, Directional, Constant };
+enum class EmitterType { Area, Point, Spot, Directional, Constant, Envmap };
+
+class EnvironmentMap;  // core/envmap.h
 
 struct EmitterDesc {
     EmitterType type = EmitterType::Area;
@@ -40,6 +43,12 @@ struct EmitterDesc {
     Vec3 direction{0, 0, 1}; // spot: beam axis; directional: direction light travels (world space, unit)
     float cutoffAngleDeg = 20.f;  // spot
     float beamWidthDeg = 15.f;    // spot (default 3/4 of the cutoff)
+    // envmap: the image file (as resolved), to_world and scale, and the map built from them
+    // (immutable, shared by copies of the description; the scene's light points at it).
+    std::string filename;
+    Mat4 toWorld{1.f};
+    float scale = 1.f;
+    std::shared_ptr<const EnvironmentMap> envmap;
     std::string source;      // "file:line" for messages
 };
 
@@ -51,7 +60,11 @@ struct CameraDesc {
     float fovDeg = 45.f;
     FovAxis fovAxis = FovAxis::X;
     float nearClip = 0.01f;
-    int width = 768, height = 576;
+    int width = 768, height = 576;  // the image rendered: the crop window's size
+    // hdrfilm's crop window (Mitsuba's crop_offset_x/y, crop_width/height): the image is the
+    // window of width x height pixels at (cropX, cropY) of the full film fullWidth x fullHeight,
+    // whose size the field of view refers to. 0: the full film is the image.
+    int fullWidth = 0, fullHeight = 0, cropX = 0, cropY = 0;
     FilterType filter = FilterType::Box;  // tent: filter importance sampling, radius 1 pixel
 };
 

@@ -114,7 +114,8 @@ public:
             const PathVertex& v = z[t - 1];
             const Color before = L;
             // s = 0: the walk hit an emitter (t - 1 segments).
-            bool neeImpossible = t == 2 || !reg_.connectible(z[t - 2]);
+            // (a walk step through a delta lobe is not a path next-event estimation makes)
+            bool neeImpossible = t == 2 || !reg_.connectible(z[t - 2]) || z[t - 2].delta;
             if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
                 Color c = emitterHit(scene, reg_, z, t, pdfs, readLimit);
                 if (!isBlack(c)) {

@@ -37,7 +37,7 @@ struct BruteForce : PathWeights {
     // rho and rho_hat of x_j's BSDF between its path neighbours (channel sums).
     void values(int j, double& plain, double& hat) const {
         const PathVertex& v = *x[j];
-        const SurfaceBsdf b(v.bxdf, v.shading, v.ng);
+        const SurfaceBsdf b(v.bxdf, v.shading, v.ng, v.uv);
         const Vec3 wo = dir(j, j + 1), wi = dir(j, j - 1);  // (either order: the ratio is symmetric)
         RegularizationRequest request;
         request.tau = jg.tau();

@@ -143,3 +143,51 @@ TEST_CASE("film: splats merged in chunk order are independent of the thread sche
     REQUIRE(a.pixels.size() == b.pixels.size());
     for (size_t i = 0; i < a.pixels.size(); ++i) CHECK(a.pixels[i] == b.pixels[i]);
 }
+
+TEST_CASE("camera: a crop window is that window of the full film", "[camera]") {
+    // Rays, raster positions, importance and its density of the cropped camera are the full
+    // camera's shifted by the window's offset, so every technique (camera rays, light tracing's
+    // splats, BPT's and VCM's densities) sees the same window.
+    CameraDesc full = test::lookAt(Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(0, 1, 0), 50.f, 40, 30);
+    CameraDesc crop = full;
+    crop.fullWidth = 40;
+    crop.fullHeight = 30;
+    crop.cropX = 10;
+    crop.cropY = 5;
+    crop.width = 20;
+    crop.height = 12;
+    const Camera a(full), b(crop);
+    CHECK(b.width() == 20);
+    CHECK(b.height() == 12);
+    // The window's share of the image plane is its share of the pixels.
+    CHECK(b.imagePlaneArea() == Approx(a.imagePlaneArea() * (20.0 * 12.0) / (40.0 * 30.0)).epsilon(1e-5));
+    Rng rng(11, 12);
+    for (int i = 0; i < 2000; ++i) {
+        const Vec2 r(rng.uniform() * 20.f, rng.uniform() * 12.f);
+        const Ray rb = b.generateRay(r), ra = a.generateRay(r + Vec2(10.f, 5.f));
+        CHECK(glm::length(rb.d - ra.d) < 1e-5f);
+        const Vec3 p = rb.o + 2.3f * rb.d;
+        const auto back = b.rasterPosition(p);
+        REQUIRE(back);
+        CHECK(back->x == Approx(r.x).margin(1e-3));
+        CHECK(back->y == Approx(r.y).margin(1e-3));
+        // Importance is normalised over the window (1 / (A_window cos^4)): the full camera's over
+        // the window's share.
+        CHECK(b.importance(rb.d) == Approx(a.importance(rb.d) * (40.0 * 30.0) / (20.0 * 12.0)).epsilon(1e-4));
+        CHECK(b.directionPdf(rb.d).value == Approx(a.directionPdf(rb.d).value * (40.0 * 30.0) / (20.0 * 12.0)).epsilon(1e-4));
+    }
+    // Outside the window: no raster position, no importance, no density.
+    for (int i = 0; i < 2000; ++i) {
+        const Vec2 r(rng.uniform() * 40.f, rng.uniform() * 30.f);
+        const bool inside = r.x > 10.01f && r.x < 29.99f && r.y > 5.01f && r.y < 16.99f;
+        const bool outside = r.x < 9.99f || r.x > 30.01f || r.y < 4.99f || r.y > 17.01f;
+        const Ray ra = a.generateRay(r);
+        if (outside) {
+            CHECK_FALSE(b.rasterPosition(ra.o + 2.f * ra.d));
+            CHECK(b.importance(ra.d) == 0.f);
+            CHECK(b.directionPdf(ra.d).value == 0.f);
+        } else if (inside) {
+            CHECK(b.importance(ra.d) > 0.f);
+        }
+    }
+}

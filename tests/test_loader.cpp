@@ -723,3 +723,74 @@ TEST_CASE("loader: the external scenes load (spectral ones fail clearly)", "[loa
     CHECK(mis.bsdfs[mis.meshes[0].bsdf]->name() == "twosided(roughconductor)");
     CHECK(mis.bsdfs[mis.meshes[0].bsdf]->alpha().alphaU == Approx(0.01f));
 }
+
+TEST_CASE("loader: as tolerant as Mitsuba - crop window and sheared camera and top-level sampler and no-op parameters", "[loader]") {
+    // hdrfilm's crop window: the image is the window, the film's size stays the field of view's.
+    SceneDesc c = loadStr(wrap(R"(<sensor type="perspective"><film type="hdrfilm">
+            <integer name="width" value="40"/><integer name="height" value="30"/>
+            <integer name="crop_offset_x" value="10"/><integer name="crop_offset_y" value="5"/>
+            <integer name="crop_width" value="20"/><integer name="crop_height" value="12"/>
+            <rfilter type="box"/></film></sensor>)"));
+    CHECK(c.camera.width == 20);
+    CHECK(c.camera.height == 12);
+    CHECK(c.camera.fullWidth == 40);
+    CHECK(c.camera.fullHeight == 30);
+    CHECK(c.camera.cropX == 10);
+    CHECK(c.camera.cropY == 5);
+    // Only an offset: the window runs to the film's edge (Mitsuba's default crop size).
+    SceneDesc o = loadStr(wrap(R"(<sensor type="perspective"><film type="hdrfilm">
+            <integer name="width" value="40"/><integer name="height" value="30"/>
+            <integer name="crop_offset_x" value="30"/><rfilter type="box"/></film></sensor>)"));
+    CHECK(o.camera.width == 10);
+    CHECK(o.camera.height == 30);
+    for (const auto& [param, value] : std::vector<std::pair<std::string, std::string>>{
+             {"crop_offset_x", "40"}, {"crop_offset_y", "-1"}, {"crop_width", "31"}, {"crop_height", "0"}}) {
+        const std::string msg = errorOfStr(wrap(R"(<sensor type="perspective"><film type="hdrfilm">
+            <integer name="width" value="40"/><integer name="height" value="30"/>
+            <integer name="crop_offset_x" value=")" + std::string(param == "crop_offset_x" ? value : "10") + R"("/>
+            <integer name=")" + (param == "crop_offset_x" ? std::string("crop_offset_y") : param) + R"(" value=")" +
+                                                 (param == "crop_offset_x" ? std::string("0") : value) + R"("/>
+            </film></sensor>)"));
+        INFO(param << " = " << value << ": " << msg);
+        CHECK(msg.find(param) != std::string::npos);
+        CHECK(msg.find(param == "crop_offset_x" ? "inline.xml:4" : "inline.xml:5") != std::string::npos);
+    }
+    // A sheared camera frame is accepted (as Mitsuba does) with a warning; a scaled one is not.
+    SceneDesc sh = loadStr(wrap(R"(<sensor type="perspective"><transform name="to_world">
+            <matrix value="1 0.1 0 0  0 0.995 0 0  0 0 1 0  0 0 0 1"/></transform></sensor>)"));
+    CHECK(hasWarning(sh, "sheared", "orthonormalised"));
+    CHECK(errorOfStr(wrap(R"(<sensor type="perspective"><transform name="to_world">
+            <scale value="1.1"/></transform></sensor>)")).find("no scale factors") != std::string::npos);
+    // A sampler declared at the top level and referenced from the sensor; one used by no sensor warns.
+    SceneDesc sm = loadStr(wrap(R"(<sampler type="independent" id="smp"><integer name="sample_count" value="37"/></sampler>
+        <sampler type="independent" id="unused"><integer name="sample_count" value="2"/></sampler>
+        <sensor type="perspective"><ref id="smp"/></sensor>)"));
+    CHECK(sm.sampleCount == 37);
+    CHECK(hasWarning(sm, "unused", "used by no sensor"));
+    CHECK_FALSE(hasWarning(sm, "smp"));
+    // A film cannot be referenced (Mitsuba declares films inside sensors only).
+    CHECK(errorOfStr(wrap(R"(<bsdf type="diffuse" id="b"/><sensor type="perspective"><ref id="b"/></sensor>)"))
+              .find("unexpected element inside <sensor>") != std::string::npos);
+    // Mitsuba's integrator parameters that change nothing here: accepted, each named in a note.
+    SceneDesc in = loadStr(wrap(R"(<integrator type="path"><integer name="samples_per_pass" value="4"/>
+        <float name="timeout" value="10"/><boolean name="strict_normals" value="true"/></integrator>)"));
+    CHECK(hasWarning(in, "samples_per_pass", "ignored"));
+    CHECK(hasWarning(in, "timeout", "ignored"));
+    CHECK(hasWarning(in, "strict_normals", "ignored"));
+    // Mitsuba's direct integrator is the path tracer's paths of up to two segments; moment's
+    // nested integrator is the one that renders.
+    SceneDesc di = loadStr(wrap(R"(<integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>)"));
+    CHECK(di.integrator.type == "path");
+    CHECK(di.integrator.maxDepth == 2);
+    CHECK(hasWarning(di, "emitter_samples", "ignored"));
+    SceneDesc mo = loadStr(wrap(R"(<integrator type="moment"><integrator type="bdpt"><integer name="max_depth" value="5"/></integrator></integrator>)"));
+    CHECK(mo.integrator.type == "bdpt");
+    CHECK(mo.integrator.maxDepth == 5);
+    CHECK(hasWarning(mo, "moment", "nested"));
+    SceneDesc md = loadStr(wrap(R"(<integrator type="moment"><integrator type="direct"/></integrator>)"));
+    CHECK(md.integrator.maxDepth == 2);
+    CHECK(errorOfStr(wrap(R"(<integrator type="moment"/>)")).find("moment needs one nested") != std::string::npos);
+    // A typo stays an error.
+    CHECK(errorOfStr(wrap(R"(<integrator type="path"><integer name="samples_per_pas" value="4"/></integrator>)"))
+              .find("samples_per_pas") != std::string::npos);
+}

@@ -173,7 +173,7 @@ struct BruteForce : PathWeights {
         if (j < 1 || j > n() - 2 || smooth(j) || x[j]->bxdf->lambert()) return 1.0;
         const float a = x[j]->bxdf->roughness(), g = accumulated(j, fromLight);
         if (!(g > a) && !(tau > 0.f)) return 1.0;
-        const SurfaceBsdf b(x[j]->bxdf, x[j]->shading, x[j]->ng);
+        const SurfaceBsdf b(x[j]->bxdf, x[j]->shading, x[j]->ng, x[j]->uv);
         BsdfContext hatCtx(TransportMode::Radiance);
         hatCtx.reg.minAlpha = {std::max(g, a), std::max(g, a)};
         if (tau > 0.f) hatCtx.reg.tau = tau;

@@ -257,7 +257,7 @@ TEST_CASE("SurfaceBsdf's pairGeometry is the local one, and Zero where the norma
     const Vec3 wo = frame.toWorld(glm::normalize(woL)), wi = frame.toWorld(glm::normalize(wiL));
     RegularizationRequest req;
     req.minAlpha = {0.6f, 0.6f};
-    const SurfaceBsdf s(b.get(), frame, n);
+    const SurfaceBsdf s(b.get(), frame, n, Vec2(0.f));
     const PairGeometry world = s.pairGeometry(wo, wi), local = b->pairGeometry(glm::normalize(woL), glm::normalize(wiL));
     REQUIRE(world.lobe == PairGeometry::Lobe::Transmission);
     const BsdfContext ctx(TransportMode::Radiance, req);
@@ -270,7 +270,7 @@ TEST_CASE("SurfaceBsdf's pairGeometry is the local one, and Zero where the norma
     // geometry says for every request.
     const Vec3 ng = glm::normalize(n - 3.f * wi * glm::dot(wi, n));
     REQUIRE(glm::dot(ng, wi) * glm::dot(n, wi) < 0.f);
-    const SurfaceBsdf leak(b.get(), frame, ng);
+    const SurfaceBsdf leak(b.get(), frame, ng, Vec2(0.f));
     CHECK(leak.pairGeometry(wo, wi).lobe == PairGeometry::Lobe::Zero);
     CHECK(isBlack(leak.eval(wo, wi, BsdfContext(TransportMode::Radiance, req)).f));
 }

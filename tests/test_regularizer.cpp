@@ -76,8 +76,8 @@ bool samePdfs(const PathPdfs& a, const PathPdfs& b) {
 }  // namespace
 
 TEST_CASE("regulariser seam: per-subpath state is carried on every vertex", "[regularizer]") {
-    // The state: nine floats at the end of the record (176 bytes).
-    static_assert(sizeof(PathVertex) == 176);
+    // The state: nine floats at the end of the record (184 bytes).
+    static_assert(sizeof(PathVertex) == 184);
     Scene scene(testScene());
     WalkStats ws;
     const CountingState counting;

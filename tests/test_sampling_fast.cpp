@@ -157,7 +157,7 @@ TEST_CASE("SurfaceBsdf eval and sample are bit-identical to the straightforward 
             const Frame frame(n);
             const Vec3 wo = sampleUniformSphere(rng.uniform2());
             const Vec3 wi = sampleUniformSphere(rng.uniform2());
-            const SurfaceBsdf bsdf(bxdf.get(), frame, ng);
+            const SurfaceBsdf bsdf(bxdf.get(), frame, ng, Vec2(0.f));
             const ReferenceSurfaceBsdf ref{bxdf.get(), frame, ng};
             for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
                 const BsdfEval a = bsdf.eval(wo, wi, mode), b = ref.eval(wo, wi, mode);

@@ -54,6 +54,7 @@ float Jg19::lightBound(const Light& light) {
         case LightType::Constant: return kUniformSpherePdf;
         case LightType::Spot: return 1.f / coneSolidAngle(light.cutoff);
         case LightType::Directional: return kInvPi;  // (a delta direction that NEE samples exactly: as an area light)
+        case LightType::Envmap: return light.envmap->directionalBound();  // largest radiance / its integral
     }
     return kInvPi;
 }
@@ -92,10 +93,10 @@ int pathVertexCount(const Technique& t) { return t.photon ? t.s - 1 + t.t : t.s 
 
 // The emitter hit's term in q (see select): 1 / P, P = min(1, rho_bar_k A |cos theta_L| / D^2),
 // x0 the light's vertex, x1 the next one on the path, rhoK the bound of the first vertex from the
-// light that is not a delta and D the length unfolded up to it (1 for a constant background).
+// light that is not a delta and D the length unfolded up to it (1 for a background: constant, envmap).
 double emitterHitTerm(const PathVertex& x0, const PathVertex& x1, double rhoK, double D) {
     double hitProbability = 0.0;
-    if (x0.light && x0.light->type == LightType::Constant) {
+    if (x0.light && x0.light->isEnvironment()) {
         hitProbability = 1.0;
     } else if (x0.light && x0.light->type == LightType::Area && std::isfinite(D) && D > 0.0) {
         const double cosL = std::abs(glm::dot(x0.ng, glm::normalize(x1.p - x0.p)));

@@ -22,7 +22,8 @@
 //     techniques that can produce it (select):
 //       q = min_k rho_bar_k rho_bar_{k+1} (d_k / d_path)^-2 over the running integrator's
 //       connections k (Eq. 17; rho_bar of an endpoint: its directional density's maximum, the
-//       camera's importance at the image centre, 1/pi for an area light, 1/(4 pi) for a point);
+//       camera's importance at the image centre, 1/pi for an area light, 1/(4 pi) for a point,
+//       an envmap's largest luminance over its integral over the sphere);
 //       ours for VCM: the merge at x_i enters as rho_bar_i d_path^2 / (N pi r^2) (one BSDF and the
 //       kernel over N light paths in place of the second BSDF and 1/d^2).
 //       q < tau^2: an unbiased sampler is good enough, nothing is regularised (Eq. 18, tau' = inf).

@@ -116,11 +116,15 @@ struct PathVertex : SurfacePoint {
         deltaBsdf = false;
         roughness = rough;
         curvature = 0.f;
+        uv = Vec2(0.f);
     }
 
     bool onSurface() const { return kind == VertexKind::Surface || (kind == VertexKind::Light && ng != Vec3(0.f)); }
-    bool connectible() const { return !delta && (kind != VertexKind::Surface || (bxdf && !deltaBsdf)); }
-    SurfaceBsdf bsdf() const { return SurfaceBsdf(bxdf, shading, ng); }
+    // A surface vertex is a connection end where its BSDF has a non-delta lobe, whichever lobe its
+    // walk sampled (a plastic's walk may leave through the coating's delta lobe: a connection
+    // there evaluates the base); other vertices where the walk's own step was not a delta.
+    bool connectible() const { return kind != VertexKind::Surface ? !delta : (bxdf && !deltaBsdf); }
+    SurfaceBsdf bsdf() const { return SurfaceBsdf(bxdf, shading, ng, uv); }
 };
 
 // Area density at `to` of a solid-angle density sampled towards it (no conversion for a vertex at

@@ -194,7 +194,8 @@ void initAtInfinity(const Scene& scene, const Reg& reg, PathVertex& v, PathVerte
 inline Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
     const Light& l = *a.light;
     switch (l.type) {
-        case LightType::Area: return l.Le(a.ng, w);
+        case LightType::Area:
+        case LightType::Envmap: return l.Le(a.ng, w);
         case LightType::Spot: return l.value * l.spotFalloff(w);
         default: return l.value;
     }
@@ -348,7 +349,10 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     if (s - 1 <= readLimit) P.fromCamera[s - 1] = convertDensity(eb.pdfFwd, a, wBA, abDist2).value;
     if (s >= 2 && s - 2 <= readLimit)
         P.fromCamera[s - 2] = convertDensity(ea.pdfRev, y[s - 2], a.wo, sqr(a.segmentLength)).value;
-    if (aLight) P.delta[s - 1] = false;
+    // The connection's ends evaluate their BSDFs' non-delta lobes, whichever lobe their walks
+    // sampled next (a mixed BSDF such as plastic): neither end is a delta vertex of this path.
+    P.delta[s - 1] = false;
+    P.delta[s] = false;
     if (s <= readLimit)
         P.fromLight[s] = aLight ? detail::emissionDensity(scene, a, -wBA, b, abDist2).value
                                 : convertDensity(ea.pdfFwd, b, wBA, abDist2).value;

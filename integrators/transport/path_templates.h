@@ -254,7 +254,10 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
     pdfs.belowBase = pdfs.aboveBase = -1.0;
     float sel = scene.lightSelectionProb(v.light);
     pdfs.fromLight[0] = sel * v.light->pdfLi(scene, z[t - 2].p, v.p, v.ng, -v.wo).value;
-    pdfs.delta[0] = false;
+    // A light at infinity seen straight from the camera (t = 2): no technique joins the two (connect
+    // refuses a light at infinity as the camera's partner), so x_0 is marked as no connection's end
+    // (the emitter hit is the path's only technique).
+    pdfs.delta[0] = t == 2 && v.infinite;
     pdfs.lightHittable = true;
     // light travels along v.wo, over the segment that arrived at v
     if (readLimit >= 1)
