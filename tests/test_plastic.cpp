@@ -18,6 +18,8 @@
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "chi2.h"
+#include "render_compare.h"
+#include "scene_builders.h"
 #include "core/loader.h"
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -583,5 +585,34 @@ TEST_CASE("loader builds plastic and roughplastic with Mitsuba's names and defau
         const std::string msg = loadError(xml);
         INFO(xml << " -> " << msg);
         CHECK(msg.find(name) != std::string::npos);
+    }
+}
+
+TEST_CASE("smooth plastic in a furnace: every integrator's techniques agree with BSDF sampling alone", "[plastic][statistical]") {
+    // The camera inside an emitting sphere of smooth plastic, direct light only (max depth 2).
+    // A walk that leaves a plastic vertex through the coating's delta lobe still has the base for
+    // next-event estimation and connections there; an integrator that skipped them (treating the
+    // vertex as a delta vertex) lost the base's direct light on those samples: 1.3% dark with MIS,
+    // 2.4% with next-event estimation alone. Reference: the path tracer with BSDF sampling only,
+    // which never connects. 16x16 images at 64 spp in 4x4 blocks, K = 8 seeds each, Welch's t per block at
+    // family-wise significance 1% (Sidak over 16 blocks).
+    lt::SceneDesc d = lt::test::furnace(16, 0.5f);
+    d.bsdfs[0] = makePlastic(1.49f / 1.000277f, Color(0.5f), Color(1.f), true);
+    d.integrator.maxDepth = 2;
+    RenderSettings s;
+    s.spp = 64;
+    s.maxDepth = 2;
+    s.integrator = "pt";
+    s.ptStrategy = "bsdf";
+    const auto ref = lt::test::blockStats(d, s, 8, 4);
+    for (const auto& [integ, strategy] : std::vector<std::pair<std::string, std::string>>{
+             {"pt", "mis"}, {"pt", "nee"}, {"bpt", "mis"}, {"vcm", "mis"}}) {
+        s.integrator = integ;
+        s.ptStrategy = strategy;
+        if (integ == "vcm") s.radius = 1e-6f;
+        double worst;
+        const int bad = lt::test::differingBlocks(ref, lt::test::blockStats(d, s, 8, 4), 0.01, &worst);
+        INFO(integ << " " << strategy << ": " << bad << " blocks differ, worst |t|/crit " << worst);
+        CHECK(bad == 0);
     }
 }
