@@ -1,13 +1,40 @@
 #include "core/film.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
 namespace lt {
 
-Film::Film(int width, int height, FilterType filter)
+namespace {
+constexpr int kGaussianBins = 4096;
+}
+
+Film::Film(int width, int height, FilterType filter, float gaussianStddev)
     : width_(width), height_(height), filter_(filter), sum_(size_t(width) * height, glm::dvec3(0.0)),
-      count_(size_t(width) * height, 0u), splat_(size_t(width) * height, glm::dvec3(0.0)) {}
+      count_(size_t(width) * height, 0u), splat_(size_t(width) * height, glm::dvec3(0.0)) {
+    if (filter_ != FilterType::Gaussian) return;
+    // Mitsuba's gaussian rfilter: radius 4 stddev, the value at the radius subtracted so that it
+    // falls to 0 there. Its CDF by the trapezoid rule on a fine grid (the density is smooth).
+    const double s = gaussianStddev, r = 4.0 * s, a = -1.0 / (2.0 * s * s), bias = std::exp(a * r * r);
+    gaussianRadius_ = float(r);
+    auto f = [&](double x) { return std::max(0.0, std::exp(a * x * x) - bias); };
+    std::vector<double> cdf(kGaussianBins + 1, 0.0);
+    const double h = 2.0 * r / kGaussianBins;
+    for (int i = 0; i < kGaussianBins; ++i) cdf[i + 1] = cdf[i] + 0.5 * h * (f(-r + i * h) + f(-r + (i + 1) * h));
+    gaussianCdf_.resize(cdf.size());
+    for (size_t i = 0; i < cdf.size(); ++i) gaussianCdf_[i] = float(cdf[i] / cdf.back());
+}
+
+// The offset whose CDF is u, linear between the table's points.
+float Film::sampleGaussian(float u) const {
+    const auto it = std::upper_bound(gaussianCdf_.begin(), gaussianCdf_.end(), u);
+    const int i = std::clamp(int(it - gaussianCdf_.begin()) - 1, 0, kGaussianBins - 1);
+    const float c0 = gaussianCdf_[size_t(i)], c1 = gaussianCdf_[size_t(i) + 1];
+    const float t = c1 > c0 ? std::clamp((u - c0) / (c1 - c0), 0.f, 1.f) : 0.5f;
+    return gaussianRadius_ * (-1.f + 2.f * (float(i) + t) / float(kGaussianBins));
+}
 
 static float sampleTent(float u) {  // density 1 - |x| on [-1, 1]
     if (u < 0.5f) return -1.f + std::sqrt(2.f * u);
@@ -16,6 +43,7 @@ static float sampleTent(float u) {  // density 1 - |x| on [-1, 1]
 
 Vec2 Film::samplePixelOffset(const Vec2& u) const {
     if (filter_ == FilterType::Tent) return Vec2(0.5f + sampleTent(u.x), 0.5f + sampleTent(u.y));
+    if (filter_ == FilterType::Gaussian) return Vec2(0.5f + sampleGaussian(u.x), 0.5f + sampleGaussian(u.y));
     return u;
 }
 

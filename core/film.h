@@ -1,6 +1,8 @@
-// Film: per-pixel accumulation of camera samples (box filter over the pixel; the tent filter is
-// realised by filter importance sampling of the pixel offset, so every sample stays in its own
-// pixel), plus a deterministic splat path for light tracing. Invalid (NaN, Inf, negative)
+// Film: per-pixel accumulation of camera samples (box filter over the pixel; the tent and
+// Gaussian filters are realised by filter importance sampling of the pixel offset, so every sample
+// stays in its own pixel's sum), plus a deterministic splat path for light tracing, which splats
+// into the pixel it lands in (a box filter: with tent or Gaussian, light tracing's image is the
+// box-filtered one). Invalid (NaN, Inf, negative)
 // samples are rejected and counted, never accumulated.
 #pragma once
 #include <atomic>
@@ -28,12 +30,14 @@ public:
     static constexpr size_t kBytesPerPixel = 2 * sizeof(glm::dvec3) + sizeof(uint32_t);
     static constexpr int64_t kMaxPixels = int64_t(1) << 26;
 
-    Film(int width, int height, FilterType filter);
+    Film(int width, int height, FilterType filter, float gaussianStddev = 0.5f);
     int width() const { return width_; }
     int height() const { return height_; }
 
     // Offset in pixel units of a camera sample inside/around its pixel, from u in [0,1)^2.
-    // Box: u itself. Tent (radius 1 px): x = 0.5 + tent(u).
+    // Box: u itself. Tent (radius 1 px): x = 0.5 + tent(u). Gaussian: x = 0.5 + a sample of
+    // Mitsuba's gaussian, exp(-x^2 / (2 s^2)) - exp(-r^2 / (2 s^2)) on [-r, r], r = 4 s, per axis
+    // (a tabulated inverse CDF).
     Vec2 samplePixelOffset(const Vec2& u) const;
 
     // Thread-safe as long as no two threads write the same pixel (tiles are disjoint).
@@ -64,6 +68,9 @@ private:
     bool valid(const Color& c) const { return isFinite(c) && c.x >= 0.f && c.y >= 0.f && c.z >= 0.f; }
     int width_, height_;
     FilterType filter_;
+    std::vector<float> gaussianCdf_;  // the Gaussian's CDF at kGaussianBins + 1 equal steps over [-r, r]
+    float gaussianRadius_ = 0.f;
+    float sampleGaussian(float u) const;
     std::vector<glm::dvec3> sum_;
     std::vector<uint32_t> count_;
     std::vector<glm::dvec3> splat_;

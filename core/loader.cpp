@@ -379,9 +379,9 @@ private:
             if (o->tag == "rfilter" && !sawFilter) rfilter(*o), sawFilter = true;
             else xml::fail(*o, "unexpected element inside <film> (supported: one rfilter)");
         }
-        if (!sawFilter) {
-            warn(e, "no <rfilter>: Mitsuba's default is gaussian, which is not supported: using box");
-            C.filter = FilterType::Box;
+        if (!sawFilter) {  // Mitsuba's default
+            C.filter = FilterType::Gaussian;
+            C.filterStddev = 0.5f;
         }
         if (t != "hdrfilm") return;  // parameters of other films are not checked
         p.ignore({"file_format", "pixel_format", "component_format", "banner", "high_quality_edges"});
@@ -398,8 +398,15 @@ private:
                 warn(e, fmt::format("filter radius {} is not supported: using {}", r, t == "box" ? "0.5" : "1"));
             noObjects(p, "a filter has no nested plugins");
             p.finish();
+        } else if (t == "gaussian") {
+            out_.camera.filter = FilterType::Gaussian;
+            out_.camera.filterStddev = p.getFloat("stddev", 0.5f);
+            if (!(out_.camera.filterStddev > 0.f && out_.camera.filterStddev <= 64.f))
+                p.failAt("stddev", fmt::format("must be in (0, 64] pixels (got {})", out_.camera.filterStddev));
+            noObjects(p, "a filter has no nested plugins");
+            p.finish();
         } else {
-            warn(e, fmt::format("rfilter type '{}' is not supported: using box (supported: box, tent)", t));
+            warn(e, fmt::format("rfilter type '{}' is not supported: using box (supported: box, tent, gaussian)", t));
             out_.camera.filter = FilterType::Box;
         }
     }

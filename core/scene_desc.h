@@ -53,7 +53,7 @@ struct EmitterDesc {
 };
 
 enum class FovAxis { X, Y, Smaller, Larger, Diagonal };
-enum class FilterType { Box, Tent };
+enum class FilterType { Box, Tent, Gaussian };
 
 struct CameraDesc {
     Mat4 toWorld{1.f};       // camera frame: +Z forward, +Y up, +X image left
@@ -65,7 +65,8 @@ struct CameraDesc {
     // window of width x height pixels at (cropX, cropY) of the full film fullWidth x fullHeight,
     // whose size the field of view refers to. 0: the full film is the image.
     int fullWidth = 0, fullHeight = 0, cropX = 0, cropY = 0;
-    FilterType filter = FilterType::Box;  // tent: filter importance sampling, radius 1 pixel
+    FilterType filter = FilterType::Box;  // tent and gaussian: filter importance sampling (core/film.h)
+    float filterStddev = 0.5f;            // gaussian: Mitsuba's stddev in pixels (radius 4 stddev)
 };
 
 // The values the regularisation parameters accept: the loader (XML), render's options and the

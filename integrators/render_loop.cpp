@@ -193,7 +193,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
                   const std::function<void(const Progress&)>& progress) {
     auto integrator = makeIntegrator(settings);
     const Camera& cam = scene.camera();
-    Film film(cam.width(), cam.height(), scene.desc().camera.filter);
+    Film film(cam.width(), cam.height(), scene.desc().camera.filter, scene.desc().camera.filterStddev);
     std::unique_ptr<tbb::global_control> limit;
     if (settings.threads > 0)
         limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, settings.threads);

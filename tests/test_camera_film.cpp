@@ -83,6 +83,42 @@ TEST_CASE("camera: We and the direction pdf integrate to one over the image", "[
     CHECK(cam.directionPdf(w).value == Approx(cam.importance(w) * w.z).epsilon(1e-5));
 }
 
+TEST_CASE("film: Gaussian filter importance sampling has Mitsuba's gaussian's distribution", "[film]") {
+    // Mitsuba's gaussian rfilter: exp(-x^2 / (2 s^2)) - exp(-r^2 / (2 s^2)) on [-r, r], r = 4 s.
+    // 400000 offsets per stddev in 40 bins against the density's integral (Simpson per bin); each
+    // bin within 5 binomial standard deviations (per-bin false alarm ~6e-7).
+    for (const float sd : {0.5f, 0.3f}) {
+        Film film(4, 4, FilterType::Gaussian, sd);
+        const double r = 4.0 * sd, a = -1.0 / (2.0 * sd * sd), bias = std::exp(a * r * r);
+        auto f = [&](double x) { return std::max(0.0, std::exp(a * x * x) - bias); };
+        auto integral = [&](double x0, double x1) {
+            double sum = 0.0;
+            const int m = 64;
+            for (int k = 0; k < m; ++k) {
+                const double u = x0 + (x1 - x0) * k / m, v = u + (x1 - x0) / m;
+                sum += (v - u) / 6.0 * (f(u) + 4.0 * f(0.5 * (u + v)) + f(v));
+            }
+            return sum;
+        };
+        const double total = integral(-r, r);
+        Rng rng(7, 8);
+        const int n = 400000, bins = 40;
+        std::vector<int> hist(bins, 0);
+        for (int i = 0; i < n; ++i) {
+            const Vec2 o = film.samplePixelOffset(rng.uniform2());
+            REQUIRE(std::abs(o.x - 0.5f) <= float(r) + 1e-5f);
+            REQUIRE(std::abs(o.y - 0.5f) <= float(r) + 1e-5f);
+            hist[std::clamp(int((o.x - 0.5 + r) / (2 * r) * bins), 0, bins - 1)]++;
+        }
+        for (int b = 0; b < bins; ++b) {
+            const double x0 = -r + 2 * r * b / bins, x1 = x0 + 2 * r / bins;
+            const double expected = n * integral(x0, x1) / total;
+            INFO("stddev " << sd << " bin " << b);
+            CHECK(std::abs(hist[b] - expected) <= 5 * std::sqrt(expected) + 1.0);
+        }
+    }
+}
+
 TEST_CASE("film: tent filter importance sampling has the tent's distribution", "[film]") {
     Film film(4, 4, FilterType::Tent);
     Rng rng(1, 1);

@@ -255,7 +255,7 @@ TEST_CASE("loader: fallbacks warn and name what is used instead", "[loader]") {
             <sampler type="stratified"><integer name="sample_count" value="9"/></sampler>
             <film type="ldrfilm">
                 <integer name="width" value="10"/><integer name="height" value="12"/>
-                <rfilter type="gaussian"><float name="stddev" value="0.3"/></rfilter>
+                <rfilter type="lanczos"><integer name="lobes" value="3"/></rfilter>
             </film>
         </sensor>)"));
     CHECK(s.integrator.type == "path");
@@ -264,8 +264,18 @@ TEST_CASE("loader: fallbacks warn and name what is used instead", "[loader]") {
     CHECK(hasWarning(s, "stratified", "independent"));
     CHECK(hasWarning(s, "ldrfilm", "hdrfilm"));
     CHECK(hasWarning(s, "ldrfilm", "PNG"));
-    CHECK(hasWarning(s, "gaussian", "box"));
+    CHECK(hasWarning(s, "lanczos", "box"));
     CHECK(s.camera.filter == FilterType::Box);
+    // Mitsuba's gaussian filter, also its default where the film has no <rfilter>.
+    SceneDesc g = loadStr(wrap(R"(<sensor type="perspective"><film type="hdrfilm">
+            <rfilter type="gaussian"><float name="stddev" value="0.3"/></rfilter></film></sensor>)"));
+    CHECK(g.camera.filter == FilterType::Gaussian);
+    CHECK(g.camera.filterStddev == 0.3f);
+    SceneDesc none = loadStr(wrap(R"(<sensor type="perspective"><film type="hdrfilm"/></sensor>)"));
+    CHECK(none.camera.filter == FilterType::Gaussian);
+    CHECK(none.camera.filterStddev == 0.5f);
+    CHECK(errorOfStr(wrap(R"(<sensor type="perspective"><film type="hdrfilm">
+            <rfilter type="gaussian"><float name="stddev" value="0"/></rfilter></film></sensor>)")).find("stddev") != std::string::npos);
     CHECK(s.camera.width == 10);
     CHECK(s.camera.height == 12);
 }
@@ -349,7 +359,7 @@ TEST_CASE("loader: include, forward ref and ref name", "[loader]") {
     CHECK(s.sampleCount == 7);    // the includer's <default> wins over the fragment's
     CHECK(s.camera.width == 32);  // $res from the fragment's default
     CHECK(s.camera.fovDeg == Approx(40));
-    CHECK(hasWarning(s, "rfilter", "gaussian"));  // Mitsuba's default filter; box is used
+    CHECK(s.camera.filter == FilterType::Gaussian);  // no <rfilter>: Mitsuba's default
     REQUIRE(s.meshes.size() == 1);
     REQUIRE(s.emitters.size() == 1);
     CHECK(s.meshes[0].emitter == 0);
