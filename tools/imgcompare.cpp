@@ -1,11 +1,14 @@
 // imgcompare: error metrics between an image A and a reference B.
 //   imgcompare A B [--metric all|mse|relmse|rmsre|mape|mean|top1] [--top-fraction F] [--crop x,y,w,h]
 //                  [--error-map out.exr] [--strategies DIR [--worst K]] [--json]
+//   imgcompare A REF --ztest --ref-var VAR --spp N [--significance S] [--pvalue-map FILE] [--crop x,y,w,h] [--json]
 // --strategies attributes the worst pixels to the techniques whose images (render --strategy-images)
 // make up A there (core/metrics.h: attributeWorstPixels).
-// Exit codes: 0 success, 1 usage error (bad flag/value, crop outside the image),
-//             2 unreadable image, size mismatch, non-finite pixel, error map not writable, or a
-//               strategy image that cannot be read, has another size or a non-finite pixel.
+// --ztest applies Mitsuba 3's per-pixel z-test of its render tests (tools/ztest.h) instead of the metrics.
+// Exit codes: 0 success (with --ztest: the test passes), 1 usage error (bad flag/value, crop outside
+//             the image), 2 unreadable image, size mismatch, non-finite pixel, error map not writable,
+//               or a strategy image that cannot be read, has another size or a non-finite pixel,
+//             3 (--ztest) the z-test rejects A.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
@@ -20,6 +23,7 @@
 #include "core/image.h"
 #include "core/metrics.h"
 #include "tools/cli_checks.h"
+#include "tools/ztest.h"
 
 using namespace lt;
 
@@ -27,6 +31,7 @@ namespace {
 
 constexpr int kExitUsage = 1;
 constexpr int kExitImage = 2;
+constexpr int kExitZTestFails = 3;
 
 std::optional<CropRect> parseCrop(const std::string& s) {
     std::vector<long> v;
@@ -89,6 +94,74 @@ std::string jsonTechniques(const std::vector<TechniqueShare>& ts) {
     return out + "]";
 }
 
+// --ztest: reads the variance, runs tools/ztest.h, prints the result; exit 0 pass, 3 reject.
+int runZTest(const Image& a, const Image& b, const std::string& pathA, const std::string& pathB,
+             const std::string& pathVar, long spp, double significance, const CropRect* crop,
+             const std::string& pvalueMapPath, bool json) {
+    Image var;
+    try {
+        var = readImage(pathVar);
+    } catch (const std::exception& e) {
+        return error(kExitImage, e.what());
+    }
+    if (var.width != b.width || var.height != b.height)
+        return error(kExitImage, fmt::format("size mismatch: variance {} is {}x{} but reference {} is {}x{}", pathVar,
+                                             var.width, var.height, pathB, b.width, b.height));
+    // A's non-finite values fail the test (as in Mitsuba); the reference's and the variance's are errors.
+    for (auto [img, path] : {std::pair{&b, &pathB}, std::pair{static_cast<const Image*>(&var), &pathVar}})
+        if (auto p = findNonFinite(*img, crop)) {
+            const Color& c = img->at(p->first, p->second);
+            return error(kExitImage, fmt::format("{}: non-finite value at pixel ({}, {}): ({}, {}, {})", *path, p->first,
+                                                 p->second, c.x, c.y, c.z));
+        }
+    ztest::Settings settings;
+    settings.spp = spp;
+    settings.significance = significance;
+    Image pvalues;
+    ztest::Result r;
+    try {
+        r = ztest::run(a, b, var, settings, crop, pvalueMapPath.empty() ? nullptr : &pvalues);
+    } catch (const std::exception& e) {
+        return error(kExitUsage, e.what());
+    }
+    const std::string channel = r.minChannel >= 0 ? std::string(1, "XYZ"[r.minChannel]) : "-";
+    std::vector<std::pair<std::string, std::string>> rows = {
+        {"ztest_result", r.pass ? "pass" : "fail"},
+        {"ztest_pixels", fmt::format("{}", r.pixels)},
+        {"ztest_spp", fmt::format("{}", spp)},
+        {"ztest_significance", fmt::format("{}", significance)},
+        {"ztest_sidak_level", fmt::format("{}", r.alpha)},
+        {"ztest_failing_values", fmt::format("{}", r.failingValues)},
+        {"ztest_failing_pixels", fmt::format("{}", r.failingPixels)},
+        {"ztest_allowed_failing_values", fmt::format("{}", r.allowedFailingValues)},
+        {"ztest_nonfinite_values", fmt::format("{}", r.nonFiniteValues)},
+        {"ztest_min_pvalue", fmt::format("{}", r.minPValue)},
+        {"ztest_max_z", fmt::format("{}", r.maxZ)},
+    };
+    if (json) {
+        std::string out = fmt::format("{{\"image\": {}, \"reference\": {}, \"variance\": {}, \"ztest_pass\": {}",
+                                      jsonString(pathA), jsonString(pathB), jsonString(pathVar), r.pass);
+        for (size_t i = 1; i < rows.size(); ++i) out += fmt::format(", \"{}\": {}", rows[i].first, rows[i].second);
+        out += fmt::format(", \"ztest_min_pvalue_at\": {{\"x\": {}, \"y\": {}, \"channel\": \"{}\", \"image\": {}, "
+                           "\"reference\": {}, \"variance\": {}}}}}",
+                           r.minX, r.minY, channel, r.minImage, r.minReference, r.minVariance);
+        fmt::print("{}\n", out);
+    } else {
+        for (auto& [name, v] : rows) fmt::print("{}: {}\n", name, v);
+        fmt::print("ztest_min_pvalue_at: pixel ({}, {}) channel {} image {} reference {} variance {}\n", r.minX,
+                   r.minY, channel, r.minImage, r.minReference, r.minVariance);
+    }
+    std::fflush(stdout);
+    if (!pvalueMapPath.empty()) {
+        try {
+            writeImage(pvalues, pvalueMapPath);
+        } catch (const std::exception& e) {
+            return error(kExitImage, e.what());
+        }
+    }
+    return r.pass ? 0 : kExitZTestFails;
+}
+
 constexpr size_t kPixelTechniques = 3;  // techniques named per worst pixel (then "rest")
 constexpr size_t kTopTechniques = 5;    // techniques named for the worst fraction of pixels
 
@@ -101,7 +174,10 @@ int main(int argc, char** argv) {
         "metrics average over all values (double precision). Output: one 'name: value' line per metric."};
     app.get_formatter()->column_width(34);
     std::string pathA, pathB, metricStr = "all", cropStr, errorMapPath, strategiesDir;
-    bool json = false;
+    bool json = false, ztestMode = false;
+    std::string refVarPath, pvalueMapPath;
+    long ztestSpp = 0;
+    double significance = ztest::kSignificance;
     double topFraction = 0.01;
     size_t worstK = 5;
     app.add_option("A", pathA, "Image to evaluate (.exr, .pfm, .hdr)")->required()->type_name("FILE");
@@ -133,6 +209,37 @@ int main(int argc, char** argv) {
         ->needs(strategiesOpt)
         ->type_name("K");
     app.add_flag("--json", json, "Print the results as one JSON object instead of 'name: value' lines");
+    CLI::Option* ztestOpt = app.add_flag(
+        "--ztest", ztestMode,
+        "Instead of the metrics: Mitsuba 3's per-pixel z-test of A (the mean of --spp samples) against the "
+        "reference B with the per-sample variance --ref-var (below); exit 0 when it passes, 3 when it rejects A");
+    app.add_option("--ref-var", refVarPath,
+                   "With --ztest: the reference's per-sample variance image (Mitsuba's *_ref_rgb_var.exr), B's size")
+        ->needs(ztestOpt)
+        ->type_name("FILE");
+    app.add_option("--spp", ztestSpp, "With --ztest: the samples per pixel of A")
+        ->check(lt::cli::positive())
+        ->needs(ztestOpt)
+        ->type_name("N");
+    app.add_option("--significance", significance,
+                   "With --ztest: the family-wise significance level before the Sidak correction (default 0.01, "
+                   "Mitsuba's); in (0, 1)")
+        ->check(CLI::Validator(
+            [](std::string& v) -> std::string {
+                double x = 0;
+                return lt::parseFiniteNumber(v, x) && x > 0 && x < 1
+                           ? std::string()
+                           : fmt::format("must be a number in (0, 1) (got '{}')", v);
+            },
+            "(0, 1)"))
+        ->needs(ztestOpt)
+        ->type_name("S");
+    app.add_option("--pvalue-map", pvalueMapPath,
+                   "With --ztest: write every value's p-value (X, Y, Z in the R, G, B channels; cropped if --crop) "
+                   "to this file (.exr, .pfm)")
+        ->needs(ztestOpt)
+        ->type_name("FILE");
+    ztestOpt->excludes(strategiesOpt);  // --metric, --top-fraction, --error-map: refused after parsing
     app.footer(fmt::format(
         "Metrics (a = value of A, b = value of B, n = 3 * pixels):\n"
         "  mean   : (1/n) sum a  and  (1/n) sum b   (printed as mean_image, mean_reference)\n"
@@ -148,10 +255,17 @@ int main(int argc, char** argv) {
         "  in the sum of the strategy images, and each technique's share of that sum; then each technique's\n"
         "  share of the summed value of the worst F of pixels. strategy_sum_rel_diff = sum |S - A| / sum |A|\n"
         "  (S = the strategy images' sum) says whether DIR belongs to A (~1e-8) or to another render.\n"
-        "Exit codes: 0 success; 1 usage error (bad flag or value, crop outside the image);\n"
-        "            2 unreadable image, size mismatch, non-finite pixel, error map not writable,\n"
-        "              strategy folder or image unreadable, of another size or non-finite.",
-        kRelMseEpsilon, kMapeEpsilon));
+        "--ztest (Mitsuba 3's src/render/tests/test_renders.py): A, B and the variance V (of one sample)\n"
+        "  are converted from RGB to CIE XYZ; per value z = |a - b| sqrt(N / max(v, {})), N = --spp, and\n"
+        "  p = 2 (1 - Phi(z)); a value fails when p <= alpha = 1 - (1 - S)^(1/pixels) (Sidak over the\n"
+        "  pixels, S = --significance); A passes when (passing values)/3 >= {} x pixels. Mitsuba renders\n"
+        "  N = {} // pixels samples. Prints ztest_* lines: result, failing values and pixels, the\n"
+        "  smallest p-value and where, alpha.\n"
+        "Exit codes: 0 success (--ztest: the test passes); 1 usage error (bad flag or value, crop outside\n"
+        "            the image); 2 unreadable image, size mismatch, non-finite pixel (in A: not with\n"
+        "            --ztest, where such a value fails), error map not writable, strategy folder or image\n"
+        "            unreadable, of another size or non-finite; 3 (--ztest) the z-test rejects A.",
+        kRelMseEpsilon, kMapeEpsilon, ztest::kVarianceFloor, ztest::kPassFraction, ztest::kSampleBudget));
 
     try {
         app.parse(argc, argv);
@@ -166,6 +280,13 @@ int main(int argc, char** argv) {
     const Metric mapMetric = all || metricStr == "top1" ? Metric::RelMse : *parseMetric(metricStr);
     if (!(topFraction > 0.0 && topFraction <= 1.0))
         return error(kExitUsage, fmt::format("--top-fraction must be in (0, 1], got {}", topFraction));
+
+    if (ztestMode && (refVarPath.empty() || ztestSpp <= 0))
+        return error(kExitUsage, "--ztest needs --ref-var FILE and --spp N");
+    if (ztestMode)
+        for (const char* metricOnly : {"--metric", "--top-fraction", "--error-map"})
+            if (app.count(metricOnly))
+                return error(kExitUsage, fmt::format("{} does not apply to --ztest (use --pvalue-map for a map)", metricOnly));
 
     std::optional<CropRect> crop;
     if (!cropStr.empty()) {
@@ -190,6 +311,7 @@ int main(int argc, char** argv) {
                                                  a.width, a.height, pathA, pathB));
     }
     const CropRect* cropPtr = crop ? &*crop : nullptr;
+    if (ztestMode) return runZTest(a, b, pathA, pathB, refVarPath, ztestSpp, significance, cropPtr, pvalueMapPath, json);
     for (auto [img, path] : {std::pair{&a, &pathA}, std::pair{&b, &pathB}})
         if (auto p = findNonFinite(*img, cropPtr)) {
             const Color& c = img->at(p->first, p->second);
