@@ -338,5 +338,9 @@ BxdfPtr makeTwoSided(BxdfPtr inner);
 // Mitsuba's diffuse takes a texture (values above 1 are kept, as a constant's are).
 class Texture;
 BxdfPtr makeTexturedDiffuse(std::shared_ptr<const Texture> reflectance);
+// plastic (rough false) or roughplastic whose diffuse_reflectance is a texture (bsdf/plastic.cpp).
+BxdfPtr makeTexturedPlastic(bool rough, MicrofacetType dist, float alpha, float eta,
+                            std::shared_ptr<const Texture> diffuseReflectance, const Color& specularReflectance,
+                            bool nonlinear);
 
 }  // namespace lt

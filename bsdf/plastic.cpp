@@ -25,7 +25,10 @@
 // rough coating resolves the request on its alpha (MicrofacetLobe::resolve), a smooth one becomes a
 // GGX/Smith lobe where the request makes it rough, or KD13's cone (cone_mollifier.h), with the
 // conductors' energy compensation. The base keeps its value (its T and Fdr are the material's own).
+#include <new>
+#include <stdexcept>
 #include "bsdf/bsdf.h"
+#include "core/texture/texture.h"
 #include "bsdf/cone_mollifier.h"
 #include "bsdf/energy_compensation.h"
 #include "bsdf/fresnel.h"
@@ -153,36 +156,53 @@ private:
 
 class PlasticBxdf final : public Bxdf {
 public:
+    // diffTex: the base's reflectance as a texture (diffR is then its mean, for a caller without a
+    // point); the model at a point is a PlasticAt (below) with the base there.
     PlasticBxdf(bool rough, MicrofacetType dist, float alpha, float eta, const Color& diffR, const Color& specR,
-                bool nonlinear)
+                bool nonlinear, TexturePtr diffTex = nullptr)
         : rough_(rough), lobe_{dist, MaskingModel::Smith, rough ? alpha : 0.f, rough ? alpha : 0.f}, eta_(eta),
-          specR_(specR) {
-        float fdr;
+          specR_(specR), nonlinear_(nonlinear), diffTex_(std::move(diffTex)) {
         if (rough_) {
             coating_.emplace(Microfacet(dist, alpha, alpha, MaskingModel::Smith), eta);
-            fdr = coating_->fdr;
+            fdr_ = coating_->fdr;
         } else {
-            fdr = fresnelDiffuseReflectance(1.f / eta);
+            fdr_ = fresnelDiffuseReflectance(1.f / eta);
         }
-        const Color denom = nonlinear ? Color(1.f) - diffR * fdr : Color(1.f - fdr);
-        base_ = diffR / denom * (kInvPi / (eta * eta));
-        const float dMean = mean(diffR), sMean = mean(specR);
-        specWeight_ = dMean + sMean > 0.f ? sMean / (dMean + sMean) : 0.5f;
+        base_ = baseOf(diffR);
         float tMax = 0.f;  // (the table's nodes bound its interpolation; F is smallest near normal incidence)
         for (int k = 0; k <= 256; ++k) tMax = std::max(tMax, transmittance(float(k) / 256.f));
-        baseBound_ = maxComp(base_) * tMax * tMax;
+        const Color diffMax = diffTex_ ? diffTex_->maxValue() : diffR;
+        baseBound_ = maxComp(baseOf(diffMax).color) * tMax * tMax;  // (R' grows with R)
         comp_.emplace(lobe_);  // (energy_compensation.h: smooth, or glossy and isotropic)
-        continuation_ = std::max(continuationOf(specR), continuationOf(diffR));
+        continuation_ = std::max(continuationOf(specR), continuationOf(diffMax));
+        textured_ = diffTex_ != nullptr;
         cacheBounds();
     }
 
-    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
-        return evalImpl(wo, wi, ctx, true);
+    // The base at one point: R' / (pi eta^2) and Mitsuba's specular sampling weight from R.
+    struct Base {
+        Color color{0.f};
+        float specWeight = 0.5f;
+    };
+    Base baseOf(const Color& diffR) const {
+        const Color denom = nonlinear_ ? Color(1.f) - diffR * fdr_ : Color(1.f - fdr_);
+        const float dMean = mean(diffR), sMean = mean(specR_);
+        return {diffR / denom * (kInvPi / (eta_ * eta_)), dMean + sMean > 0.f ? sMean / (dMean + sMean) : 0.5f};
     }
 
+    const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override;
+
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
+        return evalImpl(base_, wo, wi, ctx, true);
+    }
     bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
+        return sampleImpl(base_, wo, uLobe, u, ctx, out);
+    }
+
+    bool sampleImpl(const Base& base, const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx,
+                    BsdfSample& out) const {
         if (!(wo.z > 0.f)) return false;
-        const float pCoat = coatingProbability(transmittance(wo.z));
+        const float pCoat = coatingProbability(base, transmittance(wo.z));
         const bool coat = uLobe < pCoat;
         Vec3 wi;
         if (coat) {
@@ -207,7 +227,7 @@ public:
         out.wi = wi;
         if (ctx.directionOnly) return true;
         // The mixture's value over its density (Mitsuba's roughplastic); the cone is no sampled lobe.
-        const BsdfEval e = evalImpl(wo, wi, ctx, false);
+        const BsdfEval e = evalImpl(base, wo, wi, ctx, false);
         if (!(e.pdfFwd.value > 0.f) || !std::isfinite(e.pdfFwd.value)) return false;
         out.weight = e.f * (wi.z / e.pdfFwd.value);
         out.pdfFwd = e.pdfFwd;
@@ -252,22 +272,23 @@ private:
         return coating_ ? coating_->lookup(mu) : 1.f - fresnelDielectric(mu, eta_);
     }
     // P_c, the probability of sampling the coating from a direction whose transmittance is t.
-    float coatingProbability(float t) const {
+    float coatingProbability(const Base& base, float t) const {
         t = std::clamp(t, 0.f, 1.f);
-        const float c = (1.f - t) * specWeight_, d = t * (1.f - specWeight_);
+        const float c = (1.f - t) * base.specWeight, d = t * (1.f - base.specWeight);
         return c + d > 0.f ? c / (c + d) : 1.f;
     }
 
     // The base and the coating's non-delta lobe under ctx's request, with the mixture's densities.
     // cone: whether a smooth coating takes KD13's cone (eval; not sample, which never draws it).
-    BsdfEval evalImpl(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx, bool cone) const {
+public:
+    BsdfEval evalImpl(const Base& base, const Vec3& wo, const Vec3& wi, const BsdfContext& ctx, bool cone) const {
         BsdfEval e;
         const float cosO = wo.z, cosI = wi.z;
         if (!(cosO > 0.f) || !(cosI > 0.f)) return e;
         const float tO = transmittance(cosO), tI = transmittance(cosI);
-        e.f = base_ * (tO * tI);
-        const float pCoatO = ctx.valueOnly ? 0.f : coatingProbability(tO);
-        const float pCoatI = ctx.valueOnly ? 0.f : coatingProbability(tI);
+        e.f = base.color * (tO * tI);
+        const float pCoatO = ctx.valueOnly ? 0.f : coatingProbability(base, tO);
+        const float pCoatI = ctx.valueOnly ? 0.f : coatingProbability(base, tI);
         if (!ctx.valueOnly) {
             e.pdfFwd = SolidAnglePdf((1.f - pCoatO) * cosI * kInvPi);
             e.pdfRev = SolidAnglePdf((1.f - pCoatI) * cosO * kInvPi);
@@ -298,18 +319,57 @@ private:
         return e;
     }
 
+private:
     bool rough_;
     MicrofacetLobe lobe_;  // the coating (alphas 0 when smooth)
     float eta_;
     Color specR_;
-    Color base_{0.f};          // R' / (pi eta^2)
-    float specWeight_ = 0.5f;  // Mitsuba's specular sampling weight w
-    float baseBound_ = 0.f;    // the largest value of the base's term
+    bool nonlinear_;
+    float fdr_ = 0.f;          // the base's internal diffuse reflectance Fdr
+    TexturePtr diffTex_;       // the base's reflectance as a texture, or null
+    Base base_;                // R' / (pi eta^2), Mitsuba's specular sampling weight w
+    float baseBound_ = 0.f;    // the largest value of the base's term (over the texture too)
     std::optional<RoughCoating> coating_;   // (rough only)
     std::optional<LobeCompensation> comp_;  // (always: the coating is a reflection lobe, isotropic)
 };
 
+// A textured plastic's model at one point: the material's coating with the base there
+// (Bxdf::atUv; evaluated and sampled only).
+class PlasticAt final : public Bxdf {
+public:
+    PlasticAt(const PlasticBxdf& m, const Color& diffR) : m_(m), base_(m.baseOf(diffR)) {}
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
+        return m_.evalImpl(base_, wo, wi, ctx, true);
+    }
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
+        return m_.sampleImpl(base_, wo, uLobe, u, ctx, out);
+    }
+    uint32_t flags() const override { return m_.flags(); }
+    float valueBound(const BsdfContext& ctx) const override { return m_.valueBound(ctx); }
+    float roughness() const override { return m_.roughness(); }
+    Roughness alpha() const override { return m_.alpha(); }
+    std::string name() const override { return m_.name(); }
+
+private:
+    const PlasticBxdf& m_;
+    PlasticBxdf::Base base_;
+};
+
+const Bxdf* PlasticBxdf::atUv(const Vec2& uv, void* storage, size_t capacity) const {
+    if (!diffTex_) return this;
+    if (sizeof(PlasticAt) > capacity) throw std::logic_error("Bxdf::atUv: instance storage too small");
+    return new (storage) PlasticAt(*this, diffTex_->eval(uv));
+}
+
 }  // namespace
+
+BxdfPtr makeTexturedPlastic(bool rough, MicrofacetType dist, float alpha, float eta, TexturePtr diffuseReflectance,
+                            const Color& specularReflectance, bool nonlinear) {
+    const Color mean = diffuseReflectance->meanValue();
+    return std::make_shared<PlasticBxdf>(rough && alpha >= kMinAlpha, rough ? dist : MicrofacetType::GGX,
+                                         rough ? alpha : 0.f, eta, mean, specularReflectance, nonlinear,
+                                         std::move(diffuseReflectance));
+}
 
 BxdfPtr makePlastic(float eta, const Color& diffuseReflectance, const Color& specularReflectance, bool nonlinear) {
     // Given a regularisation request (bsdf.h) the smooth coating becomes a GGX/Smith rough one.

@@ -589,7 +589,7 @@ private:
 
     // Mitsuba 3's plastic and roughplastic, with its parameters and defaults (polypropylene in air,
     // Beckmann alpha 0.1); roughplastic is isotropic and Smith-masked there.
-    BxdfPtr buildPlastic(const Elem& e, Props& p, bool rough) {
+    BxdfPtr buildPlastic(const Elem& e, Props& p, bool rough, TexturePtr diffTex) {
         MicrofacetType dist = MicrofacetType::Beckmann;
         float alpha = 0.f;
         if (rough) {
@@ -600,7 +600,7 @@ private:
             roughness(p, dist, alpha, av, masking);
             if (masking != MaskingModel::Smith) p.failAt("masking", "roughplastic supports the Smith masking only");
         }
-        Color diffR = nonNegColor(p, "diffuse_reflectance", Color(0.5f));
+        Color diffR = diffTex ? diffTex->maxValue() : nonNegColor(p, "diffuse_reflectance", Color(0.5f));
         Color specR = nonNegColor(p, "specular_reflectance", Color(1.f));
         float intIor = ior(p, "int_ior", 1.49f), extIor = ior(p, "ext_ior", 1.000277f);
         if (rough && intIor == extIor)
@@ -612,6 +612,7 @@ private:
             warn(e, "diffuse_reflectance > 1 does not conserve energy");
         }
         p.finish();
+        if (diffTex) return makeTexturedPlastic(rough, dist, alpha, intIor / extIor, std::move(diffTex), specR, nonlinear);
         if (rough) return makeRoughPlastic(dist, alpha, intIor / extIor, diffR, specR, nonlinear);
         return makePlastic(intIor / extIor, diffR, specR, nonlinear);
     }
@@ -632,7 +633,9 @@ private:
         }
         const std::map<std::string, const Elem*> textures = textureParams(p);
         noObjects(p, "nested plugins other than textures are not supported here");
-        noTexturesBut(p, textures, t == "diffuse" ? std::vector<std::string>{"reflectance"} : std::vector<std::string>{});
+        noTexturesBut(p, textures, t == "diffuse" ? std::vector<std::string>{"reflectance"}
+                                   : t == "plastic" || t == "roughplastic" ? std::vector<std::string>{"diffuse_reflectance"}
+                                                                           : std::vector<std::string>{});
         if (t == "diffuse") {
             if (auto it = textures.find("reflectance"); it != textures.end()) {
                 p.finish();
@@ -643,7 +646,10 @@ private:
             p.finish();
             return makeDiffuse(r);
         }
-        if (t == "plastic" || t == "roughplastic") return buildPlastic(e, p, t == "roughplastic");
+        if (t == "plastic" || t == "roughplastic") {
+            const auto it = textures.find("diffuse_reflectance");
+            return buildPlastic(e, p, t == "roughplastic", it != textures.end() ? texture(*it->second) : nullptr);
+        }
         bool rough = t.rfind("rough", 0) == 0;
         MicrofacetType dist = MicrofacetType::Beckmann;
         float au = 0.f, av = 0.f;

@@ -234,3 +234,45 @@ TEST_CASE("loader: textures inline and referenced and their errors", "[texture][
     <shape type="rectangle"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/></bsdf></shape>
 </scene>)")).find("unsupported texture type 'mesh_attribute'") != std::string::npos);
 }
+
+TEST_CASE("textured plastic: the model at a point is the plastic with the texture's reflectance there", "[texture][bsdf]") {
+    // Bit for bit: the same coating, the base and Mitsuba's sampling weight from the texel.
+    const auto tex = std::make_shared<UvTexture>();
+    const Frame frame(Vec3(0, 0, 1));
+    const Vec3 ng(0, 0, 1);
+    const Vec3 wo = glm::normalize(Vec3(0.3f, -0.2f, 1.f)), wi = glm::normalize(Vec3(-0.5f, 0.1f, 0.8f));
+    for (const bool rough : {false, true}) {
+        const BxdfPtr b = makeTexturedPlastic(rough, MicrofacetType::GGX, 0.2f, 1.5f, tex, Color(0.9f), true);
+        CHECK(b->textured());
+        CHECK(b->flags() == (kReflection | kDiffuse | (rough ? kGlossy : kDelta)));
+        for (const Vec2 uv : {Vec2(0.1f, 0.7f), Vec2(0.8f, 0.3f)}) {
+            const BxdfPtr plain = rough ? makeRoughPlastic(MicrofacetType::GGX, 0.2f, 1.5f, tex->eval(uv), Color(0.9f), true)
+                                        : makePlastic(1.5f, tex->eval(uv), Color(0.9f), true);
+            const SurfaceBsdf t(b.get(), frame, ng, uv), p(plain.get(), frame, ng, uv);
+            const BsdfEval et = t.eval(wo, wi, kRadianceContext), ep = p.eval(wo, wi, kRadianceContext);
+            CHECK(et.f == ep.f);
+            CHECK(et.pdfFwd.value == ep.pdfFwd.value);
+            CHECK(et.pdfRev.value == ep.pdfRev.value);
+            for (const float uLobe : {0.02f, 0.5f, 0.98f}) {
+                BsdfSample st, sp;
+                const bool okT = t.sample(wo, uLobe, Vec2(0.3f, 0.6f), kRadianceContext, st);
+                const bool okP = p.sample(wo, uLobe, Vec2(0.3f, 0.6f), kRadianceContext, sp);
+                REQUIRE(okT == okP);
+                if (!okT) continue;
+                CHECK(st.wi == sp.wi);
+                CHECK(st.weight == sp.weight);
+                CHECK(st.lobe == sp.lobe);
+            }
+        }
+    }
+    // The loader: a roughplastic's diffuse_reflectance as a texture.
+    const std::string tiles = std::string(LT_SOURCE_DIR) + "/scenes/textured/tiles.png";
+    const SceneDesc d = loadScene(writeTemp("plastic.xml", R"(<scene version="3.0.0">
+    <shape type="rectangle"><bsdf type="roughplastic"><float name="alpha" value="0.3"/>
+        <texture type="bitmap" name="diffuse_reflectance"><string name="filename" value=")" + tiles + R"("/></texture>
+    </bsdf></shape>
+    <emitter type="constant"/>
+</scene>)"), {});
+    CHECK(d.bsdfs[size_t(d.meshes[0].bsdf)]->textured());
+    CHECK(d.bsdfs[size_t(d.meshes[0].bsdf)]->name() == "roughplastic");
+}
