@@ -1,6 +1,7 @@
 // XML layer of the scene loader: files, includes, defaults, $-substitution, typed properties,
 // transforms. See loader_xml.h.
 #include "core/loader_xml.h"
+#include "core/spectrum.h"
 
 #include <fmt/format.h>
 #include <pugixml.hpp>
@@ -116,7 +117,7 @@ void checkAttrs(const Elem& e, std::initializer_list<const char*> allowed) {
 }
 
 const std::vector<std::string> kPropertyTags = {"float", "integer", "boolean", "string", "rgb", "srgb",
-                                                "spectrum", "point", "vector", "transform"};
+                                                "spectrum", "blackbody", "point", "vector", "transform"};
 const std::vector<std::string> kObjectTags = {"bsdf", "emitter", "shape", "ref", "sampler", "film", "rfilter",
                                               "integrator", "sensor", "texture", "medium", "phase", "volume"};
 
@@ -141,6 +142,7 @@ struct Reader {
         auto src = std::make_unique<Source>();
         src->path = path;
         src->dir = fs::path(path).parent_path().string();
+        src->doc = &doc;
         src->lineStarts.push_back(0);
         for (size_t i = 0; i < text.size(); ++i)
             if (text[i] == '\n') src->lineStarts.push_back(i + 1);
@@ -283,6 +285,19 @@ struct Reader {
 };
 
 }  // namespace
+
+Document::Document(Document&& o) noexcept { *this = std::move(o); }
+
+Document& Document::operator=(Document&& o) noexcept {
+    sources = std::move(o.sources);
+    root = std::move(o.root);
+    ids = std::move(o.ids);
+    searchDirs = std::move(o.searchDirs);
+    mainDir = std::move(o.mainDir);
+    warnings = std::move(o.warnings);
+    for (auto& src : sources) src->doc = this;
+    return *this;
+}
 
 std::string resolveFile(const Document& doc, const Elem& from, const std::string& name, std::string& tried) {
     std::vector<fs::path> candidates;
@@ -443,11 +458,21 @@ Props::Props(const Elem& o) : owner(o) {
             const std::string* n = c.attr("name");
             if (!n || n->empty()) fail(c, fmt::format("a <{}> property needs a name attribute", c.tag));
             std::string key = toSnake(*n);
+            if (c.tag == "spectrum" && c.attr("type"))  // Mitsuba 3's spectrum plugins (blackbody, d65, ...)
+                failParam(owner, &c, key,
+                          fmt::format("<spectrum type=\"{}\"> plugins are not supported (Mitsuba 3's RGB variants "
+                                      "do not evaluate its blackbody either): give <spectrum value=\"...\">, "
+                                      "<spectrum filename=\"...\">, <rgb> or <blackbody temperature=\"...\">",
+                                      *c.attr("type")));
             if (c.tag == "transform") checkAttrs(c, {"name"});
             else if (c.tag == "point" || c.tag == "vector") checkAttrs(c, {"name", "value", "x", "y", "z"});
             else if (c.tag == "spectrum") checkAttrs(c, {"name", "value", "filename"});
+            else if (c.tag == "blackbody") checkAttrs(c, {"name", "temperature", "scale"});
             else checkAttrs(c, {"name", "value"});
-            if (c.tag != "transform" && c.tag != "point" && c.tag != "vector" && c.tag != "spectrum" && !c.attr("value"))
+            if (c.tag == "blackbody" && !c.attr("temperature"))
+                failParam(owner, &c, key, "<blackbody> needs a temperature attribute (kelvin)");
+            if (c.tag != "transform" && c.tag != "point" && c.tag != "vector" && c.tag != "spectrum" &&
+                c.tag != "blackbody" && !c.attr("value"))
                 failParam(owner, &c, key, fmt::format("<{}> needs a value attribute", c.tag));
             auto [it, ok] = params_.emplace(key, &c);
             if (!ok) failParam(owner, &c, key, fmt::format("given twice (first at line {})", it->second->line));
@@ -523,23 +548,87 @@ std::string Props::getString(const std::string& name, const std::string& def) {
     return *e->attr("value");
 }
 
+namespace {
+
+// Mitsuba's parameters converted unbounded (src/core/xml.cpp is_unbounded_spectrum up to 3.6;
+// 3.7's plugins ask get_unbounded_texture for eta and k).
+SpectrumKind spectrumKind(const Elem& owner, const std::string& name) {
+    if (owner.tag == "emitter") return SpectrumKind::Emission;
+    for (const char* n : {"eta", "k", "int_ior", "ext_ior", "sigma_t"})
+        if (name == n) return SpectrumKind::Unbounded;
+    return SpectrumKind::Reflectance;
+}
+
+Color spectrumColor(const Props& p, const std::string& name, const Elem& e) {
+    const std::string *v = e.attr("value"), *f = e.attr("filename");
+    if (bool(v) == bool(f)) p.failAt(name, "<spectrum> needs either a value or a filename attribute (not both)");
+    const SpectrumKind kind = spectrumKind(p.owner, name);
+    SampledSpectrum s;
+    std::string error;
+    if (v && v->find(':') == std::string::npos) {  // uniform
+        auto n = parseNumbers(*v);
+        if (!n || n->size() != 1)
+            p.failAt(name, fmt::format("<spectrum> value \"{}\": expected one number or wavelength:value pairs "
+                                       "(\"400:0.1, 500:0.5\")", *v));
+        const double u = parseScalar(p, name, e);
+        // Mitsuba 0.6 (RGB build) keeps a uniform spectrum grey, emission included.
+        return uniformSpectrumToLinearSrgb(u, e.src && e.src->legacy ? SpectrumKind::Reflectance : kind);
+    }
+    if (v) {
+        auto parsed = parseSpectrumPairs(*v, error);
+        if (!parsed) p.failAt(name, fmt::format("<spectrum> value: {}", error));
+        s = std::move(*parsed);
+    } else {
+        std::string tried, path;
+        if (e.src && e.src->doc) path = resolveFile(*e.src->doc, e, *f, tried);
+        else if (std::error_code ec; fs::is_regular_file(*f, ec)) path = *f;
+        else tried = *f;
+        if (path.empty()) p.failAt(name, fmt::format("spectrum file '{}' not found (looked for: {})", *f, tried));
+        auto read = readSpectrumFile(path, error);
+        if (!read) p.failAt(name, fmt::format("spectrum file '{}': {}", path, error));
+        s = std::move(*read);
+    }
+    if (std::string why = checkSpectrum(s); !why.empty())
+        p.failAt(name, v ? fmt::format("<spectrum> value: {}", why) : fmt::format("spectrum file '{}': {}", *f, why));
+    return spectrumToLinearSrgb(s, kind);
+}
+
+// Mitsuba 0.6's <blackbody name temperature="5000K" scale="1">: Planck's radiance in
+// W m^-2 sr^-1 nm^-1 times scale, converted as emission (0.6: XYZ by the matching functions,
+// negatives clamped; the same as Mitsuba 3's conversion of a sampled emission spectrum).
+Color blackbodyColor(const Props& p, const std::string& name, const Elem& e) {
+    std::string t = *e.attr("temperature");
+    while (!t.empty() && std::isspace((unsigned char)t.back())) t.pop_back();
+    if (!t.empty() && (t.back() == 'K' || t.back() == 'k')) t.pop_back();
+    auto n = parseNumbers(t);
+    if (!n || n->size() != 1)
+        p.failAt(name, fmt::format("<blackbody> temperature \"{}\" is not a number (kelvin)", *e.attr("temperature")));
+    const double kelvin = (*n)[0];
+    if (!(std::isfinite(float(kelvin)) && kelvin > 0.0))
+        p.failAt(name, fmt::format("<blackbody> temperature {} must be finite and > 0 kelvin", *e.attr("temperature")));
+    double scale = 1.0;
+    if (const std::string* sc = e.attr("scale")) {
+        auto m = parseNumbers(*sc);
+        if (!m || m->size() != 1 || !std::isfinite(float((*m)[0])) || (*m)[0] < 0.0)
+            p.failAt(name, fmt::format("<blackbody> scale \"{}\" must be a finite number >= 0", *sc));
+        scale = (*m)[0];
+    }
+    const Color c = Color(DVec3(blackbodyToLinearSrgb(kelvin)) * scale);
+    if (!isFinite(c))
+        p.failAt(name, fmt::format("<blackbody> temperature {} with scale {} overflows the float range", kelvin, scale));
+    return c;
+}
+
+}  // namespace
+
 Color Props::getColor(const std::string& name, const Color& def) {
     const Elem* e = find(name);
     if (!e) return def;
     if (e->tag == "float" || e->tag == "integer") return Color(float(parseScalar(*this, name, *e)));
-    if (e->tag == "spectrum") {
-        if (e->attr("filename"))
-            failAt(name, "spectral data files are not supported in this RGB renderer; use <rgb value=\"r, g, b\"> "
-                         "or a uniform <spectrum value=\"v\">");
-        const std::string* v = e->attr("value");
-        if (!v) failAt(name, "<spectrum> needs a value attribute");
-        if (v->find(':') != std::string::npos)
-            failAt(name, "spectral values (wavelength:value pairs) are not supported in this RGB renderer; "
-                         "use <rgb value=\"r, g, b\"> or a uniform <spectrum value=\"v\">");
-        return Color(float(parseScalar(*this, name, *e)));
-    }
+    if (e->tag == "spectrum") return spectrumColor(*this, name, *e);
+    if (e->tag == "blackbody") return blackbodyColor(*this, name, *e);
     if (e->tag != "rgb" && e->tag != "srgb")
-        failAt(name, fmt::format("expected a color (<rgb>, <srgb>, <spectrum> or <float>), got <{}>", e->tag));
+        failAt(name, fmt::format("expected a color (<rgb>, <srgb>, <spectrum>, <blackbody> or <float>), got <{}>", e->tag));
     const std::string& v = *e->attr("value");
     auto n = parseNumbers(v);
     if (!n || (n->size() != 3 && n->size() != 1))

@@ -15,11 +15,14 @@
 
 namespace lt::xml {
 
+struct Document;
+
 // One XML file that was read (the scene or an included fragment).
 struct Source {
     std::string path;             // as opened
     std::string dir;              // its directory
     bool legacy = false;          // <scene version="0.x">: Mitsuba 0.6 defaults
+    const Document* doc = nullptr;  // the document that owns it (files named in properties resolve through it)
     std::vector<size_t> lineStarts;
     int lineOf(ptrdiff_t offset) const;  // 1-based
 };
@@ -48,6 +51,14 @@ struct Document {
     std::vector<std::string> searchDirs;     // from <path value>
     std::string mainDir;
     std::vector<std::string> warnings;
+
+    Document() = default;
+    // Moves every member and points the sources' `doc` at the new owner (a member added above
+    // must be added to the move too).
+    Document(Document&& o) noexcept;
+    Document& operator=(Document&& o) noexcept;
+    Document(const Document&) = delete;
+    Document& operator=(const Document&) = delete;
 };
 
 // Reads the file and its includes; applies <default> (overridden by `defines`) and $name.
@@ -69,8 +80,9 @@ std::optional<std::vector<double>> parseNumbers(std::string_view s);
 Mat4 parseTransform(const Elem& owner, const Elem& t, const std::string& param);
 
 // Typed access to the properties of one plugin element (<float>, <integer>, <boolean>, <string>,
-// <rgb>, <srgb>, <spectrum>, <point>, <vector>, <transform>). Parameter names are normalised to
-// snake_case. Every name asked for (get*/has) counts as supported; finish() throws for the rest.
+// <rgb>, <srgb>, <spectrum>, <blackbody>, <point>, <vector>, <transform>). Parameter names are
+// normalised to snake_case. Every name asked for (get*/has) counts as supported; finish() throws
+// for the rest.
 class Props {
 public:
     explicit Props(const Elem& owner);
@@ -80,6 +92,11 @@ public:
     int getInt(const std::string& name, int def);
     bool getBool(const std::string& name, bool def);
     std::string getString(const std::string& name, const std::string& def);
+    // <rgb>, <srgb>, <float>, <spectrum value|filename> and <blackbody> (Mitsuba 0.6's tag:
+    // temperature in kelvin, optional "K" suffix, and scale) as linear sRGB, spectra converted as
+    // Mitsuba 3's RGB variants do (core/spectrum.h): as emission when the owner is an <emitter>,
+    // unbounded for eta, k, int_ior, ext_ior, sigma_t, as a reflectance otherwise. A spectrum
+    // file is found as the scene's other files (resolveFile).
     Color getColor(const std::string& name, const Color& def);
     Vec3 getPoint(const std::string& name, const Vec3& def);  // <point>/<vector>
     Mat4 getTransform(const std::string& name, const Mat4& def = Mat4(1.f));
