@@ -17,6 +17,7 @@
 #include "render_compare.h"
 #include "scene_builders.h"
 #include "stats.h"
+#include "process.h"
 
 using namespace lt;
 using namespace lt::test;
@@ -24,17 +25,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A per-process scratch directory for the maps and scenes written here, removed at exit.
-struct TempDir {
-    fs::path dir = fs::temp_directory_path() / ("lt_test_envmap_" + std::to_string(getpid()));
-    TempDir() { fs::create_directories(dir); }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(dir, ec);
-    }
-};
+// A per-process scratch directory for the files written here, removed at exit.
 fs::path tempDir() {
-    static TempDir t;
+    static lt::test::TempDir t("lt_test_envmap");
     return t.dir;
 }
 

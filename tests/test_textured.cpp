@@ -8,6 +8,7 @@
 #include "core/loader.h"
 #include "core/scene.h"
 #include "core/texture/texture.h"
+#include "process.h"
 #include "render_compare.h"
 #include "scene_builders.h"
 
@@ -144,9 +145,8 @@ TEST_CASE("PT and BPT and LT and VCM agree on a textured scene", "[texture][bpt]
 namespace {
 
 std::string writeTemp(const std::string& name, const std::string& text) {
-    const fs::path dir = fs::temp_directory_path() / "lt_test_textured";
-    fs::create_directories(dir);
-    const fs::path p = dir / name;
+    static const lt::test::TempDir dir("lt_test_textured");  // per process, removed at exit
+    const fs::path p = dir.dir / name;
     std::ofstream(p) << text;
     return p.string();
 }
