@@ -276,3 +276,27 @@ TEST_CASE("textured plastic: the model at a point is the plastic with the textur
     CHECK(d.bsdfs[size_t(d.meshes[0].bsdf)]->textured());
     CHECK(d.bsdfs[size_t(d.meshes[0].bsdf)]->name() == "roughplastic");
 }
+
+TEST_CASE("the textured and environment-lit scenes render in PT and BPT and VCM", "[texture][scene]") {
+    // Each scene at 16x12, 2 spp: the loader takes it (no warning), every pixel is finite and the
+    // image is not black (the textures and the sky reach the camera in every integrator).
+    for (const char* name : {"textured/textured-room.xml", "textured/textured-envmap.xml", "envmap/envmap-spheres.xml",
+                             "cornell-box-plastic.xml"}) {
+        const std::string path = std::string(LT_SOURCE_DIR) + "/scenes/" + name;
+        SceneDesc d = loadScene(path, {{"res", "16"}, {"res_x", "16"}, {"res_y", "12"}});
+        INFO(name);
+        for (const std::string& w : d.warnings) CHECK(w.find("never uses") != std::string::npos);  // (the unused -D sizes)
+        for (const char* integ : {"pt", "bpt", "vcm"}) {
+            RenderSettings s;
+            s.integrator = integ;
+            s.spp = 2;
+            s.maxDepth = 6;
+            const Image img = renderDesc(d, s);
+            INFO(integ);
+            bool finite = true;
+            for (const Color& c : img.pixels) finite = finite && isFinite(c);
+            CHECK(finite);
+            CHECK(imageMean(img) > 1e-3);
+        }
+    }
+}
