@@ -23,7 +23,10 @@
 #pragma once
 #include <cmath>
 #include <memory>
+#include <new>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include "core/math.h"
 #include "core/sampling.h"
 
@@ -201,6 +204,15 @@ inline constexpr size_t kInstanceBytes = 320, kInnerInstanceBytes = 192;
 struct alignas(16) BxdfInstance {
     unsigned char bytes[kInstanceBytes];
 };
+
+class Bxdf;
+// Constructs the instance T in Bxdf::atUv's storage of `capacity` bytes.
+template <class T, class... Args>
+const Bxdf* emplaceInstance(void* storage, size_t capacity, Args&&... args) {
+    static_assert(alignof(T) <= alignof(BxdfInstance));
+    if (sizeof(T) > capacity) throw std::logic_error("Bxdf::atUv: instance storage too small");
+    return new (storage) T(std::forward<Args>(args)...);
+}
 
 // Local-frame BSDF model. Stateless after construction, shared by all hits on a material.
 class Bxdf {

@@ -1,7 +1,4 @@
 // Lambertian diffuse (one-sided, as Mitsuba 3's "diffuse") and the two-sided adapter.
-#include <new>
-#include <stdexcept>
-#include <utility>
 #include "bsdf/bsdf.h"
 #include "core/sampling.h"
 #include "core/texture/texture.h"
@@ -9,14 +6,6 @@
 namespace lt {
 
 namespace {
-
-// Constructs T in storage of `capacity` bytes (Bxdf::atUv's instances).
-template <class T, class... Args>
-const Bxdf* emplaceInstance(void* storage, size_t capacity, Args&&... args) {
-    static_assert(alignof(T) <= alignof(BxdfInstance));
-    if (sizeof(T) > capacity) throw std::logic_error("Bxdf::atUv: instance storage too small");
-    return new (storage) T(std::forward<Args>(args)...);
-}
 
 class DiffuseBxdf final : public Bxdf {
 public:

@@ -25,8 +25,6 @@
 // rough coating resolves the request on its alpha (MicrofacetLobe::resolve), a smooth one becomes a
 // GGX/Smith lobe where the request makes it rough, or KD13's cone (cone_mollifier.h), with the
 // conductors' energy compensation. The base keeps its value (its T and Fdr are the material's own).
-#include <new>
-#include <stdexcept>
 #include "bsdf/bsdf.h"
 #include "core/texture/texture.h"
 #include "bsdf/cone_mollifier.h"
@@ -357,8 +355,7 @@ private:
 
 const Bxdf* PlasticBxdf::atUv(const Vec2& uv, void* storage, size_t capacity) const {
     if (!diffTex_) return this;
-    if (sizeof(PlasticAt) > capacity) throw std::logic_error("Bxdf::atUv: instance storage too small");
-    return new (storage) PlasticAt(*this, diffTex_->eval(uv));
+    return emplaceInstance<PlasticAt>(storage, capacity, *this, diffTex_->eval(uv));
 }
 
 }  // namespace
