@@ -67,6 +67,17 @@ float mitsubaFdr(float eta) {
     return 0.919317f - 3.4793f * x + 6.75335f * x * x - 7.80989f * x * x * x + 4.98554f * x * x * x * x -
            1.36881f * x * x * x * x * x;
 }
+// roughplastic's Fdr (Mitsuba's: twice the mean of R_int(mu) mu over the 64 cosines mu_k = k / 63)
+// in its limit alpha -> 0, where R_int(mu) is the smooth interface's Fresnel reflectance from inside.
+double roughFdrSmoothLimit(float eta) {
+    double sum = 0.0;
+    for (int k = 0; k < 64; ++k) {
+        const float mu = std::max(1e-6f, float(k) / 63.f);
+        sum += double(fresnelDielectric(mu, 1.f / eta)) * mu;
+    }
+    return 2.0 * sum / 64.0;
+}
+
 // Mitsuba's probability of sampling the smooth coating, F w / (F w + (1 - F)(1 - w)).
 float mitsubaSpecularProbability(float F, const Color& diffR, const Color& specR) {
     const float d = (diffR.x + diffR.y + diffR.z) / 3.f, s = (specR.x + specR.y + specR.z) / 3.f;
@@ -321,7 +332,8 @@ TEST_CASE("plastic follows Mitsuba's smooth formulas and its lobe choice", "[pla
 // a black base leaves the Fresnel reflectance F(mu), and the smooth white linear base adds
 // (1 - F(mu)) (1 - Fdr_ext) / (eta^2 (1 - Fdr_int)), Fdr_ext = 1 - 2 int (1 - F) mu dmu computed
 // here, Fdr_int Mitsuba's fit (1 up to the fit's error). roughplastic at alpha 0.005 is the smooth
-// model up to its tables' error (which this bounds: 1%).
+// model with its own Fdr_int (roughFdrSmoothLimit: 2-4% below the integral here, so its albedo is
+// too) up to its tables' error (which this bounds: 1%).
 TEST_CASE("plastic white furnace albedo at most 1 and against Mitsuba's albedo", "[plastic]") {
     const int n = 60000;
     auto albedo = [&](const Bxdf& b, const Vec3& wo, const RegularizationRequest& reg, double& se) {
@@ -364,6 +376,7 @@ TEST_CASE("plastic white furnace albedo at most 1 and against Mitsuba's albedo",
         const double gain = (1.0 - fdrExt) / (double(eta) * eta * (1.0 - mitsubaFdr(1.f / eta)));
         CHECK(gain == Approx(1.0).margin(0.01));  // (the fit's error: Mitsuba's model is nearly lossless)
         const BxdfPtr black = makePlastic(eta, Color(0.f)), white1 = makePlastic(eta, Color(1.f));
+        const double gainRough = (1.0 - fdrExt) / (double(eta) * eta * (1.0 - roughFdrSmoothLimit(eta)));
         const BxdfPtr roughWhite = makeRoughPlastic(MicrofacetType::GGX, 0.005f, eta, Color(1.f));
         for (float t : {0.f, 40.f, 70.f, 85.f}) {
             const Vec3 wo = dirDeg(t);
@@ -374,16 +387,17 @@ TEST_CASE("plastic white furnace albedo at most 1 and against Mitsuba's albedo",
             const double w = albedo(*white1, wo, {}, se);
             INFO("eta " << eta << " theta " << t << " white albedo " << w << " +- " << se << " expected " << expect);
             CHECK(std::abs(w - expect) <= 5.0 * se + 1e-4);
-            const double r = albedo(*roughWhite, wo, {}, se);
-            INFO("roughplastic GGX 0.005: " << r << " +- " << se);
-            CHECK(std::abs(r - expect) <= 5.0 * se + 0.01);
+            const double r = albedo(*roughWhite, wo, {}, se), expectRough = F + (1.0 - F) * gainRough;
+            INFO("roughplastic GGX 0.005: " << r << " +- " << se << " expected " << expectRough);
+            CHECK(std::abs(r - expectRough) <= 5.0 * se + 0.01);
         }
     }
 }
 
 // roughplastic's precomputed transmittance and internal reflectance, against the smooth model they
-// tend to as alpha -> 0 (T -> 1 - F, Fdr -> the exact internal reflectance, which Mitsuba's fit
-// approximates to 0.1-0.6%): the base's value away from the mirror direction.
+// tend to as alpha -> 0 (T -> 1 - F, Fdr -> roughFdrSmoothLimit; the smooth model's Fdr is Mitsuba's
+// fit, so its base is rescaled by R'(rough Fdr) / R'(fit)): the base's value away from the mirror
+// direction.
 TEST_CASE("roughplastic base tends to the smooth plastic base as alpha falls", "[plastic]") {
     for (auto d : kDists)
         for (bool nl : {false, true}) {
@@ -392,7 +406,10 @@ TEST_CASE("roughplastic base tends to the smooth plastic base as alpha falls", "
             for (float to : {0.f, 30.f, 60.f})
                 for (float ti : {15.f, 45.f, 75.f}) {
                     const Vec3 wo = dirDeg(to), wi = dirDeg(ti, 2.9f);
-                    const float a = rough->eval(wo, wi, kRadianceContext).f.x, b = smooth->eval(wo, wi, kRadianceContext).f.x;
+                    const double fr = roughFdrSmoothLimit(kEta), fs = mitsubaFdr(1.f / kEta);
+                    const double scale = nl ? (1.0 - fs * 0.8) / (1.0 - fr * 0.8) : (1.0 - fs) / (1.0 - fr);
+                    const float a = rough->eval(wo, wi, kRadianceContext).f.x,
+                                b = float(smooth->eval(wo, wi, kRadianceContext).f.x * scale);
                     INFO(distName(d) << " nonlinear " << nl << " theta " << to << " " << ti << ": " << a << " vs " << b);
                     CHECK(close(a, b, 0.012f));
                 }
@@ -403,7 +420,11 @@ TEST_CASE("roughplastic base tends to the smooth plastic base as alpha falls", "
 // project's own microfacet lobes over directions (adaptive quadrature, chi2.h), independent of the
 // model's integrals over the visible-normal square: T(mu) = int (1 - F(o.h)) f_t(o, i) |cos i| di
 // (Importance mode: the flux into the coating), R_int(mu) = int F(o.h, 1 / eta) f_r(o, i) cos i di
-// from inside, Fdr = 2 int R_int(mu) mu dmu (the midpoint rule in mu^2 on 24 nodes).
+// from inside, and Mitsuba's Fdr, twice the mean of g(mu) = R_int(mu) mu over the 64 cosines
+// mu_k = k / 63: by the trapezoid rule sum_k g_k = 63 int g dmu + (g(0) + g(1)) / 2 + O(1/63), so
+// Fdr = (63 Fdr_exact + R_int(1)) / 64 (g(0) = 0), Fdr_exact = 2 int g dmu by the midpoint rule in
+// mu^2 on 24 nodes. (With Fdr_exact itself the check fails: the two differ by about 1.5%, and the
+// base by 3e-3 to 1e-2 relative.)
 TEST_CASE("roughplastic base against its transmittance and internal reflectance integrated over directions", "[plastic]") {
     auto direction = [](double mu) { return Vec3(float(std::sqrt(std::max(0.0, 1.0 - mu * mu))), 0.f, float(mu)); };
     auto transmittance = [&](const Microfacet& mf, double mu, float eta) {
@@ -436,6 +457,7 @@ TEST_CASE("roughplastic base against its transmittance and internal reflectance 
         double fdr = 0.0;
         const int nodes = 24;
         for (int k = 0; k < nodes; ++k) fdr += internalReflectance(mf, std::sqrt((k + 0.5) / nodes), kEta) / nodes;
+        fdr = (63.0 * fdr + internalReflectance(mf, 1.0, kEta)) / 64.0;
         const BxdfPtr b = makeRoughPlastic(d, a, kEta, Color(1.f), Color(0.f));
         for (const auto& [muO, muI] : {std::pair{1.0, 0.8}, std::pair{0.5, 0.3}, std::pair{0.9, 0.15}}) {
             const Vec3 wo = direction(muO), wi = glm::normalize(Vec3(-0.3f, 0.7f, 0.f) * float(std::sqrt(1.0 - muI * muI)) /
