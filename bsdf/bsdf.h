@@ -200,7 +200,7 @@ struct Lambert {
 // textures up at the point's uv and constructs the model with those values here (pbrt-v4 builds a
 // BSDF per intersection the same way). kInstanceBytes holds any leaf model; a two-sided adapter
 // keeps its inner model's instance in kInnerInstanceBytes of its own.
-inline constexpr size_t kInstanceBytes = 320, kInnerInstanceBytes = 192;
+inline constexpr size_t kInstanceBytes = 384, kInnerInstanceBytes = 288;  // (a two-sided blend of two textured models fits: bsdf/blend.cpp)
 struct alignas(16) BxdfInstance {
     unsigned char bytes[kInstanceBytes];
 };
@@ -229,6 +229,12 @@ public:
     virtual float roughness() const = 0;
     // The microfacet alphas (0,0 for non-microfacet lobes).
     virtual Roughness alpha() const { return {}; }
+    // Whether some point's lobe differs along the tangent and the bitangent: its shading frame's
+    // tangent must then be the surface's dp/du, as Mitsuba's (core/scene.cpp).
+    virtual bool anisotropic() const {
+        const Roughness a = alpha();
+        return a.alphaU != a.alphaV;
+    }
     virtual std::string name() const = 0;
     bool isDelta() const { return (flags() & (kDiffuse | kGlossy)) == 0; }
     // Whether the BSDF is still only delta lobes when evaluated with ctx's request (a smooth
@@ -284,6 +290,10 @@ public:
     // walk directions (the walks and connections multiply it into the MIS densities, path.h); a
     // Lambert sample's weight over it is at most 1 in every channel, so no throughput grows.
     float continuation() const { return continuation_; }
+    // Mitsuba's normalmap and bumpmap use_shadowing_function (bsdf/normal_perturbation.h):
+    // SurfaceBsdf multiplies the value by Estevez et al.'s terminator term of the light-side
+    // direction at points of this material.
+    bool shadowTerminator() const { return shadowTerminator_; }
     // valueBound without a request, and with the smallest one that makes a smooth BSDF rough
     // (alphas raised to kMinAlpha; 0 where none can: index-matched glass), cached by each model's
     // constructor: JG19's walks read them at every vertex (integrators/transport/jg19.h (2), (4)).
@@ -314,6 +324,7 @@ protected:
     }
     const Lambert* lambert_ = nullptr;
     bool textured_ = false;
+    bool shadowTerminator_ = false;
     float continuation_ = 1.f;  // set by each model's constructor
     float plainBound_[2] = {0.f, 0.f}, smoothestBound_[2] = {0.f, 0.f}, changeableBound_[2] = {0.f, 0.f};
 };
@@ -354,5 +365,52 @@ BxdfPtr makeTexturedDiffuse(std::shared_ptr<const Texture> reflectance);
 BxdfPtr makeTexturedPlastic(bool rough, MicrofacetType dist, float alpha, float eta,
                             std::shared_ptr<const Texture> diffuseReflectance, const Color& specularReflectance,
                             bool nonlinear);
+// Mitsuba 3's thindielectric (eta = int_ior / ext_ior), null and polarizer as its rgb variants
+// render them (transmittance / 2, straight through): two-sided delta sheets, bsdf/thin_dielectric.cpp.
+BxdfPtr makeThinDielectric(float eta, const Color& specularReflectance = Color(1.f),
+                           const Color& specularTransmittance = Color(1.f));
+BxdfPtr makeNull();
+BxdfPtr makePolarizer(const Color& transmittance = Color(1.f));
+// Mitsuba 3's blendbsdf: (1 - weight) first + weight second (bsdf/blend.cpp); weight in [0, 1], or
+// a texture (its luminance clamped to [0, 1] at the point's uv) when weightTexture is not null.
+BxdfPtr makeBlend(BxdfPtr first, BxdfPtr second, float weight, std::shared_ptr<const Texture> weightTexture = nullptr);
+// Mitsuba 3's pplastic as its rgb variants render it (bsdf/pplastic.cpp): a microfacet reflection
+// specR F D G / (4 cos cos) plus the base diffR (1 - F(cos_o)) (1 - F(cos_i)) / pi, eta = int_ior / ext_ior.
+BxdfPtr makePolarizedPlastic(MicrofacetType dist, float alphaU, float alphaV, float eta,
+                             const Color& diffuseReflectance = Color(0.5f), const Color& specularReflectance = Color(1.f));
+
+// Textured parameters of a conductor or dielectric (Mitsuba 3's roughconductor, conductor,
+// roughdielectric and dielectric plugins take textures for these): null where the parameter is
+// the constant the factory is given. Scalar parameters (the alphas) read a texture's grey value or
+// luminance (scalarOf, core/texture/texture.h). A material's model at a point (atUv) is the
+// untextured model of the point's values, bit for bit; over the material its flags are the union
+// over the alphas' range and its bounds hold at every point (bsdf/conductor.cpp).
+struct ConductorTextures {
+    std::shared_ptr<const Texture> alphaU, alphaV, eta, k, specularReflectance;
+    float extEta = 1.f;  // eta and k textures are divided by it (relative to the exterior)
+};
+// rough false: Mitsuba's conductor (smooth; the alphas unused).
+BxdfPtr makeTexturedConductor(bool rough, MicrofacetType dist, float alphaU, float alphaV, const Color& eta,
+                              const Color& k, const Color& specularReflectance, MaskingModel masking,
+                              const ConductorTextures& textures);
+struct DielectricTextures {
+    std::shared_ptr<const Texture> alphaU, alphaV, specularReflectance, specularTransmittance;
+};
+// rough false: Mitsuba's dielectric (smooth; the alphas unused).
+BxdfPtr makeTexturedDielectric(bool rough, MicrofacetType dist, float alphaU, float alphaV, float eta,
+                               const Color& specularReflectance, const Color& specularTransmittance,
+                               MaskingModel masking, const DielectricTextures& textures);
+// plastic or roughplastic with textured specular_reflectance (and diffuse_reflectance, either may
+// be null: the constant is used); Mitsuba's roughplastic takes no texture for alpha.
+BxdfPtr makeTexturedPlastic(bool rough, MicrofacetType dist, float alpha, float eta,
+                            std::shared_ptr<const Texture> diffuseReflectance, const Color& diffuseConstant,
+                            std::shared_ptr<const Texture> specularReflectance, const Color& specularConstant,
+                            bool nonlinear);
+// Oren and Nayar's rough diffuse model as Mitsuba 0.6's roughdiffuse (bsdf/rough_diffuse.cpp):
+// reflectance and alpha (RMS slope; sigma = alpha / sqrt(2)), each a constant or a texture (null:
+// the constant); fast: the qualitative model (use_fast_approx). Cosine-weighted sampling.
+BxdfPtr makeRoughDiffuse(const Color& reflectance, float alpha, bool fast,
+                         std::shared_ptr<const Texture> reflectanceTexture = nullptr,
+                         std::shared_ptr<const Texture> alphaTexture = nullptr);
 
 }  // namespace lt

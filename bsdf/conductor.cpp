@@ -6,21 +6,78 @@
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
+#include "core/texture/texture.h"
 
+#include <cstring>
+#include <memory>
+#include <mutex>
 #include <optional>
+#include <unordered_map>
 
 namespace lt {
 
 namespace {
+
+// The energy compensations of a textured conductor's glossy isotropic lobes (energy_compensation.h:
+// its tables depend on alpha_0 and take about a millisecond and 5 KB each), one per alpha_0 rounded
+// to 7 mantissa bits (steps of 0.8%) where the alpha is textured, built on the first request at a
+// point in that step and kept.
+// (A bilinear alpha texture has a different alpha at every point: a table per point would cost a
+// millisecond per vertex and grow without bound; at most 128 tables per octave of alpha are built.)
+// An instance (atUv) resolves a request with the compensation of the untextured model of its
+// rounded alpha, bit for bit where its alpha is on the grid.
+class GlossyCompensations {
+public:
+    // round: whether the alphas vary over the surface (a constant alpha keeps its own table)
+    GlossyCompensations(MicrofacetType type, MaskingModel masking, bool round)
+        : type_(type), masking_(masking), round_(round) {}
+    const LobeCompensation* at(float alpha0) const {
+        uint32_t key;
+        std::memcpy(&key, &alpha0, sizeof(key));
+        if (round_) key = (key + (1u << 15)) & ~((1u << 16) - 1u);  // to 7 of the 23 mantissa bits
+        float rounded;
+        std::memcpy(&rounded, &key, sizeof(key));
+        const std::lock_guard<std::mutex> lock(mutex_);
+        std::unique_ptr<LobeCompensation>& c = byAlpha_[key];
+        if (!c) c = std::make_unique<LobeCompensation>(MicrofacetLobe{type_, masking_, rounded, rounded});
+        return c.get();
+    }
+
+private:
+    MicrofacetType type_;
+    MaskingModel masking_;
+    bool round_;
+    mutable std::mutex mutex_;
+    mutable std::unordered_map<uint32_t, std::unique_ptr<LobeCompensation>> byAlpha_;
+};
 
 class ConductorBxdf final : public Bxdf {
 public:
     ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
                   const Color& k, const Color& specR)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR) {
-        if (!rough || au == av) comp_.emplace(lobe_);  // (energy_compensation.h: smooth or isotropic)
+        if (!rough || au == av) {  // (energy_compensation.h: smooth or isotropic)
+            own_ = std::make_unique<LobeCompensation>(lobe_);
+            comp_ = own_.get();
+        }
         continuation_ = continuationOf(specR);  // the Fresnel factor is <= 1 on top
         cacheBounds();
+    }
+    // A textured material's model at one point (Bxdf::atUv; evaluated and sampled only): the
+    // model above with the point's values, its compensation the material's (smooth: `smooth`;
+    // glossy isotropic: `glossy`'s for its alpha, fetched on the first request that needs it).
+    // pairs: whether it offers pair geometry (not where the alphas are textured: the material's
+    // requestRatio, which the integrators ask, knows no point's alpha).
+    struct Instance {
+        const LobeCompensation* smooth;
+        const GlossyCompensations* glossy;
+        bool pairs;
+    };
+    ConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
+                  const Color& k, const Color& specR, const Instance& in)
+        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), k_(k), specR_(specR),
+          glossy_(rough && au == av ? in.glossy : nullptr), pairs_(in.pairs) {
+        if (!rough) comp_ = in.smooth;
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
@@ -98,7 +155,7 @@ public:
     }
     // (one-sided: a pair below the surface is 0 under every request)
     PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
-        if (!rough_ || lobe_.alphaU != lobe_.alphaV) return {};
+        if (!rough_ || lobe_.alphaU != lobe_.alphaV || !pairs_) return {};
         if (!(wo.z > 0.f) || !(wi.z > 0.f)) return PairGeometry{0.f, 0.f, 0.f, PairGeometry::Lobe::Zero, false};
         return microfacetPairGeometry(wo, wi, 1.f, lobe_.masking);
     }
@@ -130,6 +187,7 @@ private:
         bool compensated = false;
     };
     Request resolveFor(const RegularizationRequest& r) const {
+        if (glossy_ && !comp_ && !r.empty()) comp_ = glossy_->at(lobe_.alphaU);  // (an instance's, once)
         if (!(r.compensate && comp_ && comp_->meets(r, false))) return {lobe_.resolve(r, false, 1.f), false};
         Request q{comp_->resolve(lobe_, r, false), false};
         q.compensated = !rough_ || q.alphas.u != lobe_.alphaU;
@@ -183,7 +241,119 @@ private:
     bool rough_;
     MicrofacetLobe lobe_;
     Color eta_, k_, specR_;
-    std::optional<LobeCompensation> comp_;  // (smooth or isotropic: compensated())
+    std::unique_ptr<LobeCompensation> own_;  // (smooth or isotropic: compensated(); null in an instance)
+    // The compensation resolveFor uses (own_'s, or an instance's from its material), and where an
+    // instance's is fetched on demand.
+    mutable const LobeCompensation* comp_ = nullptr;
+    const GlossyCompensations* glossy_ = nullptr;
+    bool pairs_ = true;
+};
+
+// A conductor with textured parameters (Mitsuba's roughconductor takes a texture for alpha,
+// alpha_u, alpha_v, eta, k and specular_reflectance; conductor for eta, k and
+// specular_reflectance). The model at a point is the untextured ConductorBxdf of the point's values
+// (atUv), so a request resolves there exactly as on that model. Without a point the material is
+// the model of the textures' means. Over the whole material (bsdf.h, textured()):
+//   flags     the union over the alphas' range: a texture reaching below kMinAlpha where another
+//             point is rough makes the material glossy and delta at once (a connection there
+//             evaluates 0 at the smooth points, as a plastic's coating; the walk's own sample says
+//             which lobe it took);
+//   bounds    the rough lobe at the smallest alpha anywhere (its bound is the largest: maxValueBound
+//             falls with alpha, the compensation's K(alpha; alpha_0) is largest at the smallest
+//             alpha_0), the smooth points' own where there are any, and under a JG19 tau that a
+//             compensated point meets by construction, tau;
+//   ratios    where the alphas vary, no pair geometry (the integrators ask the material's
+//             requestRatio, which knows no point's alpha: they evaluate instead) and no
+//             requestRatioBound.
+class TexturedConductorBxdf final : public Bxdf {
+public:
+    TexturedConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
+                          const Color& k, const Color& specR, const ConductorTextures& t)
+        : rough_(rough), dist_(dist), masking_(masking), au_(au), av_(av), eta_(eta), k_(k), specR_(specR), t_(t),
+          smoothComp_(MicrofacetLobe{dist, masking, 0.f, 0.f}), glossy_(dist, masking, rough && (t.alphaU || t.alphaV)) {
+        const float inv = 1.f / t.extEta;
+        auto scalar = [](const TexturePtr& x, float c, Color (Texture::*f)() const) {
+            return x ? scalarOf(((*x).*f)()) : c;
+        };
+        const float meanU = scalar(t.alphaU, au, &Texture::meanValue), meanV = scalar(t.alphaV, av, &Texture::meanValue);
+        const float minU = scalar(t.alphaU, au, &Texture::minValue), minV = scalar(t.alphaV, av, &Texture::minValue);
+        const float maxU = scalar(t.alphaU, au, &Texture::maxValue), maxV = scalar(t.alphaV, av, &Texture::maxValue);
+        const Color meanEta = t.eta ? t.eta->meanValue() * inv : eta, meanK = t.k ? t.k->meanValue() * inv : k;
+        const Color meanSpec = t.specularReflectance ? t.specularReflectance->meanValue() : specR;
+        alphaTextured_ = rough && (t.alphaU || t.alphaV);
+        const bool anyRough = rough && std::max(maxU, maxV) >= kMinAlpha;
+        const bool anySmooth = !rough || !(std::max(minU, minV) >= kMinAlpha);
+        mean_ = std::make_unique<ConductorBxdf>(rough && std::max(meanU, meanV) >= kMinAlpha, dist, meanU, meanV, masking,
+                                                meanEta, meanK, meanSpec);
+        const float amin = std::max(0.f, std::min(minU, minV));
+        if (anyRough) roughPart_ = std::make_unique<ConductorBxdf>(true, dist, amin, amin, masking, meanEta, meanK, meanSpec);
+        if (anySmooth) smooth_ = std::make_unique<ConductorBxdf>(false, dist, 0.f, 0.f, masking, meanEta, meanK, meanSpec);
+        flags_ = kReflection | (anyRough ? kGlossy : 0u) | (anySmooth ? kDelta : 0u);
+        minPlain_ = roughPart_ ? roughPart_->plainBound() : 0.f;
+        textured_ = true;
+        continuation_ = continuationOf(t.specularReflectance ? t.specularReflectance->maxValue() : specR);
+        cacheBounds();
+    }
+
+    const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
+        const float au = t_.alphaU ? t_.alphaU->evalScalar(uv) : au_;
+        const float av = t_.alphaV ? (t_.alphaV == t_.alphaU ? au : t_.alphaV->evalScalar(uv)) : av_;
+        // (divided as the loader divides a constant eta and k: the same floats)
+        const Color eta = t_.eta ? t_.eta->eval(uv) / t_.extEta : eta_, k = t_.k ? t_.k->eval(uv) / t_.extEta : k_;
+        const Color spec = t_.specularReflectance ? t_.specularReflectance->eval(uv) : specR_;
+        // (makeRoughConductor's test: rough where either alpha reaches kMinAlpha)
+        const bool rough = rough_ && std::max(au, av) >= kMinAlpha;
+        return emplaceInstance<ConductorBxdf>(storage, capacity, rough, dist_, au, av, masking_, eta, k, spec,
+                                              ConductorBxdf::Instance{&smoothComp_, &glossy_, !alphaTextured_});
+    }
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override { return mean_->eval(wo, wi, ctx); }
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
+        return mean_->sample(wo, uLobe, u, ctx, out);
+    }
+    uint32_t flags() const override { return flags_; }
+    bool deltaUnder(const BsdfContext& ctx) const override {
+        return flags_ == (kReflection | kDelta) ? smooth_->deltaUnder(ctx) : isDelta();
+    }
+    float valueBound(const BsdfContext& ctx) const override {
+        float b = smooth_ ? smooth_->valueBound(ctx) : 0.f;
+        if (roughPart_) {
+            b = std::max(b, roughPart_->valueBound(ctx));
+            // (a compensated point meets tau up to the rounding of its bound: a few ulps)
+            if (ctx.reg.tau < kInf && ctx.reg.compensate && ctx.reg.tau < 1.01f * minPlain_)
+                b = std::max(b, ctx.reg.tau * 1.0001f);
+        }
+        return b;
+    }
+    PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
+        return alphaTextured_ ? PairGeometry{} : mean_->pairGeometry(wo, wi);
+    }
+    float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override { return mean_->requestRatio(g, ctx); }
+    float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+        return mean_->requestPdfRatio(g, r);
+    }
+    float requestRatioBound(const RegularizationRequest& r) const override {
+        return alphaTextured_ ? kInf : mean_->requestRatioBound(r);
+    }
+    float roughness() const override { return mean_->roughness(); }
+    Roughness alpha() const override { return mean_->alpha(); }
+    bool anisotropic() const override {
+        return (rough_ && t_.alphaU != t_.alphaV) || (!t_.alphaU && !t_.alphaV && mean_->anisotropic());
+    }
+    std::string name() const override { return mean_->name() + "(textured)"; }
+
+private:
+    bool rough_;
+    MicrofacetType dist_;
+    MaskingModel masking_;
+    float au_, av_;
+    Color eta_, k_, specR_;
+    ConductorTextures t_;
+    LobeCompensation smoothComp_;     // the smooth points' (a smooth ConductorBxdf's own)
+    GlossyCompensations glossy_;      // the glossy isotropic points', by alpha
+    bool alphaTextured_ = false;
+    uint32_t flags_ = 0;
+    float minPlain_ = 0.f;            // the rough part's plain bound (its smallest alpha's)
+    std::unique_ptr<ConductorBxdf> mean_, roughPart_, smooth_;
 };
 
 }  // namespace
@@ -198,6 +368,17 @@ BxdfPtr makeRoughConductor(MicrofacetType dist, float alphaU, float alphaV, cons
                            const Color& specularReflectance, MaskingModel masking) {
     const bool rough = std::max(alphaU, alphaV) >= kMinAlpha;
     return std::make_shared<ConductorBxdf>(rough, dist, alphaU, alphaV, masking, eta, k, specularReflectance);
+}
+
+BxdfPtr makeTexturedConductor(bool rough, MicrofacetType dist, float alphaU, float alphaV, const Color& eta,
+                              const Color& k, const Color& specularReflectance, MaskingModel masking,
+                              const ConductorTextures& textures) {
+    if (!rough) {  // (as makeConductor)
+        dist = MicrofacetType::GGX;
+        masking = MaskingModel::Smith;
+    }
+    return std::make_shared<TexturedConductorBxdf>(rough, dist, alphaU, alphaV, masking, eta, k, specularReflectance,
+                                                   textures);
 }
 
 }  // namespace lt

@@ -13,8 +13,9 @@
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
+#include "core/texture/texture.h"
 
-#include <optional>
+#include <memory>
 
 namespace lt {
 
@@ -26,9 +27,26 @@ public:
                    const Color& specR, const Color& specT)
         : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), specR_(specR),
           specT_(specT) {
-        if (!rough && eta != 1.f) comp_.emplace(eta, true);  // (energy_compensation.h: smooth interfaces only)
+        if (!rough && eta != 1.f) {  // (energy_compensation.h: smooth interfaces only)
+            own_ = std::make_unique<LobeCompensation>(eta, true);
+            comp_ = own_.get();
+        }
         continuation_ = std::max(continuationOf(specR), continuationOf(specT));
         cacheBounds();
+    }
+    // A textured material's model at one point (Bxdf::atUv; evaluated and sampled only): the model
+    // above with the point's values and the material's smooth compensation (eta is not textured).
+    // pairs: whether it offers pair geometry (not where the alphas are textured: the material's
+    // requestRatio, which the integrators ask, knows no point's alpha).
+    struct Instance {
+        const LobeCompensation* smooth;
+        bool pairs;
+    };
+    DielectricBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, float eta,
+                   const Color& specR, const Color& specT, const Instance& in)
+        : rough_(rough), lobe_{dist, masking, rough ? au : 0.f, rough ? av : 0.f}, eta_(eta), specR_(specR),
+          specT_(specT), pairs_(in.pairs) {
+        if (!rough && eta != 1.f) comp_ = in.smooth;
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
@@ -138,7 +156,7 @@ public:
         return rough_ ? (kReflection | kTransmission | kGlossy) : (kReflection | kTransmission | kDelta);
     }
     PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
-        if (!rough_ || eta_ == 1.f || lobe_.alphaU != lobe_.alphaV) return {};
+        if (!rough_ || eta_ == 1.f || lobe_.alphaU != lobe_.alphaV || !pairs_) return {};
         return microfacetPairGeometry(wo, wi, eta_, lobe_.masking);
     }
     // (the request resolved for the pair's lobe, as eval resolves it)
@@ -340,7 +358,102 @@ private:
     MicrofacetLobe lobe_;
     float eta_;
     Color specR_, specT_;
-    std::optional<LobeCompensation> comp_;  // (a smooth interface's: compensated())
+    std::unique_ptr<LobeCompensation> own_;   // (a smooth interface's: compensated(); null in an instance)
+    const LobeCompensation* comp_ = nullptr;  // own_'s, or an instance's material's
+    bool pairs_ = true;
+};
+
+// A dielectric with textured parameters (Mitsuba 3's roughdielectric takes a texture for alpha,
+// alpha_u, alpha_v, specular_reflectance and specular_transmittance, dielectric for the last two):
+// the model at a point is the untextured DielectricBxdf of the point's values (atUv); without a
+// point, the model of the textures' means. Over the material, as the textured conductor
+// (conductor.cpp): flags the union over the alphas' range (a smooth point beside rough ones:
+// glossy and delta), bounds the rough lobes' at the smallest alpha anywhere (a glossy interface is
+// never compensated, so its bound falls with alpha) and the smooth points' own, no pair geometry
+// where the alphas vary.
+class TexturedDielectricBxdf final : public Bxdf {
+public:
+    TexturedDielectricBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, float eta,
+                           const Color& specR, const Color& specT, const DielectricTextures& t)
+        : rough_(rough), dist_(dist), masking_(masking), au_(au), av_(av), eta_(eta), specR_(specR), specT_(specT),
+          t_(t) {
+        auto scalar = [](const TexturePtr& x, float c, Color (Texture::*f)() const) {
+            return x ? scalarOf(((*x).*f)()) : c;
+        };
+        const float meanU = scalar(t.alphaU, au, &Texture::meanValue), meanV = scalar(t.alphaV, av, &Texture::meanValue);
+        const float minU = scalar(t.alphaU, au, &Texture::minValue), minV = scalar(t.alphaV, av, &Texture::minValue);
+        const float maxU = scalar(t.alphaU, au, &Texture::maxValue), maxV = scalar(t.alphaV, av, &Texture::maxValue);
+        const Color meanR = t.specularReflectance ? t.specularReflectance->meanValue() : specR;
+        const Color meanT = t.specularTransmittance ? t.specularTransmittance->meanValue() : specT;
+        alphaTextured_ = rough && (t.alphaU || t.alphaV);
+        const bool anyRough = rough && std::max(maxU, maxV) >= kMinAlpha;
+        const bool anySmooth = !rough || !(std::max(minU, minV) >= kMinAlpha);
+        if (eta != 1.f) smoothComp_ = std::make_unique<LobeCompensation>(eta, true);
+        mean_ = std::make_unique<DielectricBxdf>(rough && std::max(meanU, meanV) >= kMinAlpha, dist, meanU, meanV,
+                                                 masking, eta, meanR, meanT);
+        const float amin = std::max(0.f, std::min(minU, minV));
+        if (anyRough) roughPart_ = std::make_unique<DielectricBxdf>(true, dist, amin, amin, masking, eta, meanR, meanT);
+        if (anySmooth) smooth_ = std::make_unique<DielectricBxdf>(false, dist, 0.f, 0.f, masking, eta, meanR, meanT);
+        flags_ = eta == 1.f ? (kTransmission | kDelta)
+                            : kReflection | kTransmission | (anyRough ? kGlossy : 0u) | (anySmooth ? kDelta : 0u);
+        textured_ = true;
+        continuation_ = std::max(continuationOf(t.specularReflectance ? t.specularReflectance->maxValue() : specR),
+                                 continuationOf(t.specularTransmittance ? t.specularTransmittance->maxValue() : specT));
+        cacheBounds();
+    }
+
+    const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
+        const float au = t_.alphaU ? t_.alphaU->evalScalar(uv) : au_;
+        const float av = t_.alphaV ? (t_.alphaV == t_.alphaU ? au : t_.alphaV->evalScalar(uv)) : av_;
+        const Color r = t_.specularReflectance ? t_.specularReflectance->eval(uv) : specR_;
+        const Color tr = t_.specularTransmittance ? t_.specularTransmittance->eval(uv) : specT_;
+        const bool rough = rough_ && std::max(au, av) >= kMinAlpha;  // (makeRoughDielectric's test)
+        return emplaceInstance<DielectricBxdf>(storage, capacity, rough, dist_, au, av, masking_, eta_, r, tr,
+                                               DielectricBxdf::Instance{smoothComp_.get(), !alphaTextured_});
+    }
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override { return mean_->eval(wo, wi, ctx); }
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
+        return mean_->sample(wo, uLobe, u, ctx, out);
+    }
+    uint32_t flags() const override { return flags_; }
+    bool deltaUnder(const BsdfContext& ctx) const override {
+        if (!(flags_ & kGlossy)) return (smooth_ ? smooth_.get() : mean_.get())->deltaUnder(ctx);
+        return false;
+    }
+    float valueBound(const BsdfContext& ctx) const override {
+        if (eta_ == 1.f) return mean_->valueBound(ctx);
+        float b = smooth_ ? smooth_->valueBound(ctx) : 0.f;
+        if (roughPart_) b = std::max(b, roughPart_->valueBound(ctx));
+        return b;
+    }
+    PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
+        return alphaTextured_ ? PairGeometry{} : mean_->pairGeometry(wo, wi);
+    }
+    float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override { return mean_->requestRatio(g, ctx); }
+    float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
+        return mean_->requestPdfRatio(g, r);
+    }
+    float requestRatioBound(const RegularizationRequest& r) const override {
+        return alphaTextured_ ? kInf : mean_->requestRatioBound(r);
+    }
+    float roughness() const override { return mean_->roughness(); }
+    Roughness alpha() const override { return mean_->alpha(); }
+    bool anisotropic() const override {
+        return (rough_ && t_.alphaU != t_.alphaV) || (!t_.alphaU && !t_.alphaV && mean_->anisotropic());
+    }
+    std::string name() const override { return mean_->name() + "(textured)"; }
+
+private:
+    bool rough_;
+    MicrofacetType dist_;
+    MaskingModel masking_;
+    float au_, av_, eta_;
+    Color specR_, specT_;
+    DielectricTextures t_;
+    std::unique_ptr<LobeCompensation> smoothComp_;  // the smooth points' (null for eta 1)
+    bool alphaTextured_ = false;
+    uint32_t flags_ = 0;
+    std::unique_ptr<DielectricBxdf> mean_, roughPart_, smooth_;
 };
 
 }  // namespace
@@ -357,6 +470,17 @@ BxdfPtr makeRoughDielectric(MicrofacetType dist, float alphaU, float alphaV, flo
     const bool rough = std::max(alphaU, alphaV) >= kMinAlpha;
     return std::make_shared<DielectricBxdf>(rough, dist, alphaU, alphaV, masking, eta, specularReflectance,
                                             specularTransmittance);
+}
+
+BxdfPtr makeTexturedDielectric(bool rough, MicrofacetType dist, float alphaU, float alphaV, float eta,
+                               const Color& specularReflectance, const Color& specularTransmittance,
+                               MaskingModel masking, const DielectricTextures& textures) {
+    if (!rough) {  // (as makeDielectric)
+        dist = MicrofacetType::GGX;
+        masking = MaskingModel::Smith;
+    }
+    return std::make_shared<TexturedDielectricBxdf>(rough, dist, alphaU, alphaV, masking, eta, specularReflectance,
+                                                    specularTransmittance, textures);
 }
 
 }  // namespace lt

@@ -111,6 +111,7 @@ public:
     float requestRatioBound(const RegularizationRequest& r) const override { return innerModel_->requestRatioBound(r); }
     float roughness() const override { return innerModel_->roughness(); }
     Roughness alpha() const override { return innerModel_->alpha(); }
+    bool anisotropic() const override { return innerModel_->anisotropic(); }
     std::string name() const override { return "twosided(" + innerModel_->name() + ")"; }
 
 private:

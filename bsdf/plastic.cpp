@@ -146,12 +146,13 @@ private:
 
 class PlasticBxdf final : public Bxdf {
 public:
-    // diffTex: the base's reflectance as a texture (diffR is then its mean, for a caller without a
-    // point); the model at a point is a PlasticAt (below) with the base there.
+    // diffTex, specTex: the base's reflectance and the coating's specular reflectance as textures
+    // (diffR and specR are then their means, for a caller without a point); the model at a point
+    // is a PlasticAt (below) with the base and the coating's colour there.
     PlasticBxdf(bool rough, MicrofacetType dist, float alpha, float eta, const Color& diffR, const Color& specR,
-                bool nonlinear, TexturePtr diffTex = nullptr)
+                bool nonlinear, TexturePtr diffTex = nullptr, TexturePtr specTex = nullptr)
         : rough_(rough), lobe_{dist, MaskingModel::Smith, rough ? alpha : 0.f, rough ? alpha : 0.f}, eta_(eta),
-          specR_(specR), nonlinear_(nonlinear), diffTex_(std::move(diffTex)) {
+          specR_(specR), nonlinear_(nonlinear), diffTex_(std::move(diffTex)), specTex_(std::move(specTex)) {
         if (rough_) {
             coating_.emplace(Microfacet(dist, alpha, alpha, MaskingModel::Smith), eta);
             fdr_ = coating_->fdr;
@@ -159,25 +160,29 @@ public:
             fdr_ = fresnelDiffuseReflectance(1.f / eta);
         }
         base_ = baseOf(diffR);
+        diffR_ = diffR;
         float tMax = 0.f;  // (the table's nodes bound its interpolation; F is smallest near normal incidence)
         for (int k = 0; k <= 256; ++k) tMax = std::max(tMax, transmittance(float(k) / 256.f));
         const Color diffMax = diffTex_ ? diffTex_->maxValue() : diffR;
         baseBound_ = maxComp(baseOf(diffMax).color) * tMax * tMax;  // (R' grows with R)
         comp_.emplace(lobe_);  // (energy_compensation.h: smooth, or glossy and isotropic)
-        continuation_ = std::max(continuationOf(specR), continuationOf(diffMax));
-        textured_ = diffTex_ != nullptr;
+        continuation_ = std::max(continuationOf(specTex_ ? specTex_->maxValue() : specR), continuationOf(diffMax));
+        textured_ = diffTex_ != nullptr || specTex_ != nullptr;
         cacheBounds();
     }
 
-    // The base at one point: R' / (pi eta^2) and Mitsuba's specular sampling weight from R.
+    // The base at one point: R' / (pi eta^2) and Mitsuba's specular sampling weight from R and
+    // the coating's colour specR there.
     struct Base {
         Color color{0.f};
         float specWeight = 0.5f;
+        Color specR{1.f};
     };
-    Base baseOf(const Color& diffR) const {
+    Base baseOf(const Color& diffR) const { return baseOf(diffR, specR_); }
+    Base baseOf(const Color& diffR, const Color& specR) const {
         const Color denom = nonlinear_ ? Color(1.f) - diffR * fdr_ : Color(1.f - fdr_);
-        const float dMean = mean(diffR), sMean = mean(specR_);
-        return {diffR / denom * (kInvPi / (eta_ * eta_)), dMean + sMean > 0.f ? sMean / (dMean + sMean) : 0.5f};
+        const float dMean = mean(diffR), sMean = mean(specR);
+        return {diffR / denom * (kInvPi / (eta_ * eta_)), dMean + sMean > 0.f ? sMean / (dMean + sMean) : 0.5f, specR};
     }
 
     const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override;
@@ -200,7 +205,7 @@ public:
             if (q.alphas.delta) {  // the mirror (a smooth coating): weight specR F / P_c
                 out.wi = Vec3(-wo.x, -wo.y, wo.z);
                 if (ctx.directionOnly) return true;
-                out.weight = specR_ * (fresnelDielectric(wo.z, eta_) / pCoat);
+                out.weight = base.specR * (fresnelDielectric(wo.z, eta_) / pCoat);
                 out.pdfFwd = out.pdfRev = SolidAnglePdf(pCoat);  // (wi.z == wo.z: the reverse choice is the same)
                 out.lobe = kReflection | kDelta;
                 out.eta = 1.f;
@@ -285,7 +290,7 @@ public:
         }
         if (!rough_ && ctx.reg.cone > 0.f) {  // (whatever else is asked, as the smooth conductor)
             if (cone)
-                e.f += ConeMollifier(ctx.reg.cone).eval(specR_ * fresnelDielectric(cosO, eta_), wi, idealReflection(wo));
+                e.f += ConeMollifier(ctx.reg.cone).eval(base.specR * fresnelDielectric(cosO, eta_), wi, idealReflection(wo));
             return e;
         }
         const Request q = resolveFor(ctx.reg);
@@ -295,13 +300,13 @@ public:
         if (!(r.value > 0.f)) return e;
         const float muL = ctx.mode == TransportMode::Radiance ? cosI : cosO;  // (the light side)
         if (q.compensated && !rough_) {  // specR F(mu_l) f1 / E(mu_l): the mirror's weight spread over the lobe
-            e.f += specR_ * (fresnelDielectric(muL, eta_) *
+            e.f += base.specR * (fresnelDielectric(muL, eta_) *
                              comp_->reflectionScale(muL, 0.5f * (mf.alphaU() + mf.alphaV())) * r.value);
         } else {
             // Fresnel at the average of wo.h and wi.h (equal up to rounding): exactly reciprocal.
             float coat = fresnelDielectric(0.5f * (glm::dot(wo, r.h) + glm::dot(wi, r.h)), eta_) * r.value;
             if (q.compensated) coat *= comp_->reflectionScale(muL, q.alphas.u);
-            e.f += specR_ * coat;
+            e.f += base.specR * coat;
         }
         if (ctx.valueOnly) return e;
         e.pdfFwd.value += pCoatO * r.reflectDensity(wo, r.gO);
@@ -317,6 +322,8 @@ private:
     bool nonlinear_;
     float fdr_ = 0.f;          // the base's internal diffuse reflectance Fdr
     TexturePtr diffTex_;       // the base's reflectance as a texture, or null
+    TexturePtr specTex_;       // the coating's specular reflectance as a texture, or null
+    Color diffR_{0.f};         // the base's reflectance (a texture's mean)
     Base base_;                // R' / (pi eta^2), Mitsuba's specular sampling weight w
     float baseBound_ = 0.f;    // the largest value of the base's term (over the texture too)
     std::optional<RoughCoating> coating_;   // (rough only)
@@ -327,7 +334,7 @@ private:
 // (Bxdf::atUv; evaluated and sampled only).
 class PlasticAt final : public Bxdf {
 public:
-    PlasticAt(const PlasticBxdf& m, const Color& diffR) : m_(m), base_(m.baseOf(diffR)) {}
+    PlasticAt(const PlasticBxdf& m, const Color& diffR, const Color& specR) : m_(m), base_(m.baseOf(diffR, specR)) {}
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         return m_.evalImpl(base_, wo, wi, ctx, true);
     }
@@ -346,8 +353,9 @@ private:
 };
 
 const Bxdf* PlasticBxdf::atUv(const Vec2& uv, void* storage, size_t capacity) const {
-    if (!diffTex_) return this;
-    return emplaceInstance<PlasticAt>(storage, capacity, *this, diffTex_->eval(uv));
+    if (!textured_) return this;
+    return emplaceInstance<PlasticAt>(storage, capacity, *this, diffTex_ ? diffTex_->eval(uv) : diffR_,
+                                      specTex_ ? specTex_->eval(uv) : specR_);
 }
 
 }  // namespace
@@ -358,6 +366,16 @@ BxdfPtr makeTexturedPlastic(bool rough, MicrofacetType dist, float alpha, float 
     return std::make_shared<PlasticBxdf>(rough && alpha >= kMinAlpha, rough ? dist : MicrofacetType::GGX,
                                          rough ? alpha : 0.f, eta, mean, specularReflectance, nonlinear,
                                          std::move(diffuseReflectance));
+}
+
+BxdfPtr makeTexturedPlastic(bool rough, MicrofacetType dist, float alpha, float eta, TexturePtr diffuseReflectance,
+                            const Color& diffuseConstant, TexturePtr specularReflectance,
+                            const Color& specularConstant, bool nonlinear) {
+    const Color diffR = diffuseReflectance ? diffuseReflectance->meanValue() : diffuseConstant;
+    const Color specR = specularReflectance ? specularReflectance->meanValue() : specularConstant;
+    return std::make_shared<PlasticBxdf>(rough && alpha >= kMinAlpha, rough ? dist : MicrofacetType::GGX,
+                                         rough ? alpha : 0.f, eta, diffR, specR, nonlinear,
+                                         std::move(diffuseReflectance), std::move(specularReflectance));
 }
 
 BxdfPtr makePlastic(float eta, const Color& diffuseReflectance, const Color& specularReflectance, bool nonlinear) {

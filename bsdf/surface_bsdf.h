@@ -2,7 +2,9 @@
 // Same direction convention as bsdf.h (wo: towards the previous vertex; wi: next).
 // It adds what depends on the geometry: the shading frame, rejection of directions on which the
 // geometric and shading normals disagree (light leaks), and the adjoint shading-normal correction
-// |wo.ns||wi.ng| / (|wo.ng||wi.ns|) in Importance mode (Veach 1997, sec. 5.3).
+// |wo.ns||wi.ng| / (|wo.ng||wi.ns|) in Importance mode (Veach 1997, sec. 5.3), and for normal- and
+// bump-mapped materials (Bxdf::shadowTerminator) the terminator term of the light-side direction
+// (shadowTerminatorTerm below).
 #pragma once
 #include "bsdf/bsdf.h"
 
@@ -11,6 +13,20 @@ namespace lt {
 // Test hook: tests switch the adjoint correction off to show that the agreement tests detect it.
 inline bool gTestDisableAdjointCorrection = false;
 
+// Estevez et al. 2019, "A Microfacet-Based Shadowing Function to Solve the Bump Terminator
+// Problem" (Ray Tracing Gems, ch. 12), as Mitsuba 3's normalmap_helpers.h: with the perturbed
+// normal n' at angle theta_n to the unperturbed one, alpha^2 = min(tan^2(theta_n) / 8, 1), and a
+// direction at angle theta to the unperturbed normal is attenuated by the Smith G1 of a GGX lobe
+// of that alpha, 2 / (1 + sqrt(1 + alpha^2 tan^2 theta)). Arguments: the cosines of n' and of the
+// direction with the unperturbed normal (the geometric one here: a mesh's interpolated normal
+// differs from it by the tessellation's small angle).
+inline float shadowTerminatorTerm(float cosN, float cosW) {
+    const float cn2 = cosN * cosN, cw2 = cosW * cosW;
+    if (!(cw2 > 0.f)) return 0.f;
+    const float alpha2 = cn2 > 0.f ? std::min(0.125f * (1.f - cn2) / cn2, 1.f) : 1.f;
+    return 2.f / (1.f + std::sqrt(1.f + alpha2 * std::max(0.f, 1.f - cw2) / cw2));
+}
+
 // A view: it refers to the frame and normal it is given (a path vertex's), without copying them.
 // A textured material's model at the point (Bxdf::atUv, from the point's uv) lives inside it, so
 // it is neither copied nor moved (it is built where it is used: PathVertex::bsdf()).
@@ -18,7 +34,7 @@ class SurfaceBsdf {
 public:
     SurfaceBsdf(const Bxdf* bxdf, const Frame& shading, const Vec3& ng, const Vec2& uv)
         : bxdf_(bxdf->textured() ? bxdf->atUv(uv, instance_.bytes, sizeof(instance_.bytes)) : bxdf),
-          frame_(shading), ng_(ng) {}
+          frame_(shading), ng_(ng), terminator_(bxdf->shadowTerminator()) {}
     SurfaceBsdf(const Bxdf*, Frame&&, const Vec3&, const Vec2&) = delete;  // would dangle
     SurfaceBsdf(const Bxdf*, const Frame&, Vec3&&, const Vec2&) = delete;
     SurfaceBsdf(const SurfaceBsdf&) = delete;  // bxdf_ may point into instance_
@@ -43,6 +59,8 @@ public:
         const Lambert* lambert = bxdf_->lambert();
         e = lambert ? lambert->eval(wo, wi) : bxdf_->eval(wo, wi, ctx);
         e.f *= corr;
+        if (terminator_) [[unlikely]]
+            e.f *= ctx.mode == TransportMode::Radiance ? terminator(wiG) : terminator(woG);
         return e;
     }
 
@@ -61,6 +79,8 @@ public:
         if (!consistent(wiG, wiN)) return false;
         if (ctx.mode == TransportMode::Importance && !gTestDisableAdjointCorrection)
             s.weight *= adjointCorrection(woN, woG, wiN, wiG);
+        if (terminator_) [[unlikely]]
+            s.weight *= ctx.mode == TransportMode::Radiance ? terminator(wiG) : terminator(woG);
         return true;
     }
 
@@ -89,10 +109,13 @@ private:
         float den = std::abs(woG * wiN);
         return den > 0.f ? num / den : 0.f;
     }
+    // The terminator term of a light-side direction with w.ng = wG (unit ng and w).
+    float terminator(float wG) const { return shadowTerminatorTerm(glm::dot(frame_.n, ng_), wG); }
     BxdfInstance instance_;  // (first: bxdf_'s initialiser writes it; uninitialised where unused)
     const Bxdf* bxdf_;
     const Frame& frame_;
     const Vec3& ng_;
+    bool terminator_;  // the material's Bxdf::shadowTerminator
 };
 
 }  // namespace lt

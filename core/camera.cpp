@@ -3,8 +3,8 @@
 namespace lt {
 
 Camera::Camera(const CameraDesc& desc)
-    : width_(desc.width), height_(desc.height), cropX_(float(desc.cropX)), cropY_(float(desc.cropY)),
-      nearClip_(desc.nearClip) {
+    : type_(desc.type), width_(desc.width), height_(desc.height), cropX_(float(desc.cropX)), cropY_(float(desc.cropY)),
+      nearClip_(desc.nearClip), farClip_(desc.farClip) {
     const int fullW = desc.fullWidth > 0 ? desc.fullWidth : width_;
     const int fullH = desc.fullHeight > 0 ? desc.fullHeight : height_;
     fullW_ = float(fullW);
@@ -43,13 +43,14 @@ Camera::Camera(const CameraDesc& desc)
     yBottom_ = tanY_ * (1.f - 2.f * float(desc.cropY + height_) / float(fullH));
     area_ = (x1_ - x0_) * (yTop_ - yBottom_);
     invArea_ = 1.f / area_;
+    if (!pinhole()) initLens(desc);
 }
 
 // The division-free form (one sqrt and one reciprocal on the chain to the ray): the camera-space
 // direction (-sx, sy, 1) has length len = sqrt(sx^2 + sy^2 + 1), the frame is orthonormal, so the
 // world direction is its image over len, cos = 1 / len, near_clip / cos = near_clip len and
 // 1 / (A cos^3) = len^3 / A.
-Ray Camera::generateRay(const Vec2& raster, SolidAnglePdf& pdf) const {
+Ray Camera::generatePinholeRay(const Vec2& raster, SolidAnglePdf& pdf) const {
     const float sx = (raster.x + cropX_) * rasterToX_ - tanX_;  // (2 x / W - 1) tanX; +sx = image right = camera -X
     const float sy = tanY_ - (raster.y + cropY_) * rasterToY_;  // (1 - 2 y / H) tanY
     const float len2 = sx * sx + sy * sy + 1.f;

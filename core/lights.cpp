@@ -1,5 +1,6 @@
 #include "core/lights.h"
 #include "core/scene.h"
+#include "core/cylinder.h"
 
 namespace lt {
 
@@ -11,7 +12,15 @@ float Light::spotFalloff(const Vec3& w) const {
     return std::clamp((cutoff - angle) / std::max(cutoff - beamWidth, 1e-7f), 0.f, 1.f);
 }
 
-inline Light::AreaPoint Light::sampleArea(const Vec2& u) const { return sphere ? sampleSphere(u) : sampleMesh(u); }
+inline Light::AreaPoint Light::sampleArea(const Vec2& u) const {
+    return sphere ? sampleSphere(u) : cylinder ? sampleCylinderPoint(u) : sampleMesh(u);
+}
+
+Light::AreaPoint Light::sampleCylinderPoint(const Vec2& u) const {
+    AreaPoint a;
+    sampleCylinder(*cylinder, u, a.p, a.n);
+    return a;
+}
 
 Light::AreaPoint Light::sampleSphere(const Vec2& u) const {
     const Vec3 d = sampleUniformSphere(u);
@@ -21,14 +30,18 @@ Light::AreaPoint Light::sampleSphere(const Vec2& u) const {
 // Each case returns its sample as one prvalue (constructed in place, every field once).
 LightSampleLi Light::sampleLiOther(const Scene& scene, const Vec3& refP, const Vec2& u) const {
     switch (type) {
-        case LightType::Area: return areaSampleLi(sampleSphere(u), refP);
+        case LightType::Area:
+            return texture ? texturedAreaSampleLi(scene, refP, u) : areaSampleLi(sampleArea(u), refP);
         case LightType::Point:
-        case LightType::Spot: {
+        case LightType::Spot:
+        case LightType::Projector: {
             const Vec3 d = position - refP;
             const float dist = glm::length(d);
             if (!(dist > 0.f)) return {};
-            return {position, Vec3(0.f), Vec3(0.f), type == LightType::Spot ? value * spotFalloff(-d / dist) : value,
-                    AreaPdf(1.f)};
+            const Color I = type == LightType::Point                ? value
+                            : type == LightType::Spot && !texture ? value * spotFalloff(-d / dist)
+                                                                  : texturedIntensity(-d / dist);
+            return {position, Vec3(0.f), Vec3(0.f), I, AreaPdf(1.f)};
         }
         case LightType::Directional: {
             const Vec3 wi = -direction;
@@ -60,7 +73,8 @@ AreaPdf Light::pdfLePos(const Scene& scene) const {
     switch (type) {
         case LightType::Area: return AreaPdf(invArea);
         case LightType::Point:
-        case LightType::Spot: return AreaPdf(1.f);
+        case LightType::Spot:
+        case LightType::Projector: return AreaPdf(1.f);
         case LightType::Directional:
         case LightType::Constant:
         case LightType::Envmap: return AreaPdf(1.f / (kPi * sqr(scene.geometryRadius())));
@@ -77,6 +91,7 @@ SolidAnglePdf Light::pdfLeDir(const Vec3& n, const Vec3& dir) const {
         case LightType::Directional: return SolidAnglePdf(1.f);  // delta direction
         case LightType::Constant: return SolidAnglePdf(kUniformSpherePdf);
         case LightType::Envmap: return SolidAnglePdf(envmap->pdf(-dir));  // dir travels from the sky
+        case LightType::Projector: return projectorPdfDir(dir);
     }
     return SolidAnglePdf(0.f);
 }
@@ -85,12 +100,20 @@ LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& 
     LightSampleLe s;
     switch (type) {
         case LightType::Area: {
-            const AreaPoint a = sampleArea(uPos);
-            s.p = a.p;
-            s.n = a.n;
+            if (texture) {
+                const TexturedPoint a = sampleTexturedArea(scene, uPos);
+                s.p = a.p;
+                s.n = a.n;
+                s.uv = a.uv;
+                s.value = texture->eval(a.uv);
+            } else {
+                const AreaPoint a = sampleArea(uPos);
+                s.p = a.p;
+                s.n = a.n;
+                s.value = value;
+            }
             Vec3 local = sampleCosineHemisphere(uDir);
             s.dir = Frame(s.n).toWorld(local);
-            s.value = value;
             s.pdfPos = AreaPdf(invArea);
             s.pdfDir = SolidAnglePdf(cosineHemispherePdf(local.z));
             return s;
@@ -105,11 +128,12 @@ LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& 
         case LightType::Spot: {
             s.p = position;
             s.dir = Frame(direction).toWorld(sampleUniformCone(uDir, cosCutoff));
-            s.value = value * spotFalloff(s.dir);
+            s.value = texture ? texturedIntensity(s.dir) : value * spotFalloff(s.dir);
             s.pdfPos = AreaPdf(1.f);
             s.pdfDir = SolidAnglePdf(1.f / coneSolidAngle(cutoff));
             return s;
         }
+        case LightType::Projector: return projectorSampleLe(uDir);
         case LightType::Directional:
         case LightType::Constant:
         case LightType::Envmap: {
@@ -139,9 +163,11 @@ LightSampleLe Light::sampleLe(const Scene& scene, const Vec2& uPos, const Vec2& 
 float Light::power(const Scene& scene) const {
     float r2 = sqr(scene.geometryRadius());  // (lights at infinity: the flux onto the geometry's disk)
     switch (type) {
-        case LightType::Area: return kPi * area * luminance(value);
+        case LightType::Area: return kPi * area * luminance(texture ? texture->meanValue() : value);
         case LightType::Point: return 4.f * kPi * luminance(value);
-        case LightType::Spot: return coneSolidAngle(0.5f * (cutoff + beamWidth)) * luminance(value);
+        case LightType::Spot:
+            return texture ? texturedPower() : coneSolidAngle(0.5f * (cutoff + beamWidth)) * luminance(value);
+        case LightType::Projector: return texturedPower();
         case LightType::Directional: return kPi * r2 * luminance(value);
         case LightType::Constant: return 4.f * kPi * kPi * r2 * luminance(value);
         case LightType::Envmap: return kPi * r2 * envmap->luminanceIntegral();

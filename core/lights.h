@@ -7,17 +7,20 @@
 // emission direction is sampled with the density of its NEE direction: pdfLeDir(dir) ==
 // pdfLi(-dir), as the vertex at infinity has one density for every technique.
 #pragma once
+#include <memory>
 #include <vector>
 #include "core/envmap.h"
 #include "core/math.h"
 #include "core/sampling.h"
 #include "core/scene_desc.h"
+#include "core/texture/texture.h"
 
 namespace lt {
 
 class Scene;
 
-enum class LightType { Area, Point, Spot, Directional, Constant, Envmap };
+// Projector: Mitsuba 3's `projector`, a delta-position light projecting an image (core/textured_lights.cpp).
+enum class LightType { Area, Point, Spot, Directional, Constant, Envmap, Projector };
 
 // A point on a light, sampled for next-event estimation from a reference point.
 struct LightSampleLi {
@@ -27,6 +30,7 @@ struct LightSampleLi {
                         // (finite lights: zero; the connection derives direction and distance from p)
     Color value{0.f};   // radiance (area, constant, envmap), intensity (point, spot) or irradiance (directional)
     AreaPdf pdfPos;     // density of the point (area; solid angle for infinite lights; 1 for delta positions)
+    Vec2 uv{0.f};       // textured area lights: the point's uv (the shape's parameterisation); else zero
 };
 
 struct LightSampleLe {
@@ -34,7 +38,12 @@ struct LightSampleLe {
     Color value{0.f};
     AreaPdf pdfPos;
     SolidAnglePdf pdfDir;
+    Vec2 uv{0.f};  // as LightSampleLi::uv
 };
+
+// A piecewise-constant density over [0, 1]^2 in proportion to a texture (projector emission),
+// mixed with a uniform one (core/textured_lights.cpp).
+class UvDistribution;
 
 // An emitting triangle, ready for sampling: p = p0 + b1 e1 + b2 e2, unit normal n.
 struct EmitterTriangle {
@@ -52,12 +61,26 @@ public:
     const EmitterTriangle* tris = nullptr;
     const Distribution1D* triDist = nullptr;
     const SphereDesc* sphere = nullptr;
+    const CylinderDesc* cylinder = nullptr;  // (core/cylinder.h)
     const EnvironmentMap* envmap = nullptr;  // Envmap (owned by the scene description)
     Vec3 position{0.f}, direction{0, 0, 1};  // point/spot; spot axis; directional travel direction
     float cosCutoff = 1.f, cutoff = 0.f, beamWidth = 0.f;  // spot, radians
     float area = 0.f, invArea = 0.f;  // area lights (set by the scene)
+    // Textures (core/textured_lights.cpp; owned by the scene description): an area light's
+    // radiance (in place of `value`), a spot's projected texture (times `value`), a projector's
+    // irradiance (null: the constant `value`). Null for every untextured light.
+    const Texture* texture = nullptr;
+    // Spot with a texture, projector: the emitter frame's x and y axes (direction is its z).
+    Vec3 axisX{1, 0, 0}, axisY{0, 1, 0};
+    // Projector (Mitsuba's projector.cpp): tan of half the horizontal fov, the image's aspect
+    // (width / height), the area of the image rectangle on the plane z = 1, the scale, and the
+    // density of emitted uv. Spot: tanCutoff = tan(cutoff) for the texture's uv.
+    float tanHalfFovX = 1.f, aspect = 1.f, sensorArea = 4.f, scale = 1.f, tanCutoff = 1.f;
+    std::shared_ptr<const UvDistribution> uvDist;
 
-    bool isDeltaPosition() const { return type == LightType::Point || type == LightType::Spot; }
+    bool isDeltaPosition() const {
+        return type == LightType::Point || type == LightType::Spot || type == LightType::Projector;
+    }
     bool isDeltaDirection() const { return type == LightType::Directional; }
     bool isDelta() const { return isDeltaPosition() || isDeltaDirection(); }
     bool isInfinite() const {
@@ -70,10 +93,11 @@ public:
 
     // Radiance leaving a point of an area light with normal n in direction w; for the environments,
     // radiance travelling along w into the scene (w points from the sky towards the scene: it
-    // arrives from the sky direction -w).
-    Color Le(const Vec3& n, const Vec3& w) const {
+    // arrives from the sky direction -w). uv: the area light's point's (read if textured).
+    Color Le(const Vec3& n, const Vec3& w, const Vec2& uv = Vec2(0.f)) const {
         switch (type) {
-            case LightType::Area: return glm::dot(n, w) > 0.f ? value : Color(0.f);  // one-sided
+            case LightType::Area:  // one-sided
+                return glm::dot(n, w) > 0.f ? (texture ? texture->eval(uv) : value) : Color(0.f);
             case LightType::Constant: return value;
             case LightType::Envmap: return envmap->eval(-w);
             default: return Color(0.f);
@@ -81,11 +105,19 @@ public:
     }
     // Spot intensity profile (1 inside the beam, falling linearly in angle to 0 at the cutoff).
     float spotFalloff(const Vec3& wFromLight) const;
+    // Intensity (W/sr) of a textured spot or of a projector towards unit direction w (Mitsuba's
+    // spot.cpp and projector.cpp; core/textured_lights.cpp).
+    Color texturedIntensity(const Vec3& w) const;
+    // Set the textures and the projector's constants from the description (the scene calls it
+    // once per light, after its type and value; nothing for untextured lights but a projector).
+    void setTextures(const EmitterDesc& ed);
+    // Projector: the largest density of an emission direction (a bound for JG19's heuristics).
+    float projectorDirBound() const;
 
     // Mesh area lights inline (the NEE sample goes straight into the caller's light vertex, see
     // sampleLightVertex); every other light type through the call sampleLiOther.
     LightSampleLi sampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const {
-        if (type == LightType::Area && !sphere) return areaSampleLi(sampleMesh(u), refP);
+        if (type == LightType::Area && !sphere && !cylinder && !texture) return areaSampleLi(sampleMesh(u), refP);
         return sampleLiOther(scene, refP, u);
     }
     // Density with which sampleLi picks point p (normal n) seen from refP, in the same measure as
@@ -113,6 +145,18 @@ private:
         return {et.p0 + bc.x * et.e1 + bc.y * et.e2, et.n};
     }
     AreaPoint sampleSphere(const Vec2& u) const;
+    // A textured area light's point as sampleArea's (the same point for the same u) with its uv.
+    struct TexturedPoint {
+        Vec3 p, n;
+        Vec2 uv;
+    };
+    TexturedPoint sampleTexturedArea(const Scene& scene, const Vec2& u) const;
+    LightSampleLi texturedAreaSampleLi(const Scene& scene, const Vec3& refP, const Vec2& u) const;
+    // The projector's emission: a direction in proportion to the image, and its density.
+    LightSampleLe projectorSampleLe(const Vec2& uDir) const;
+    SolidAnglePdf projectorPdfDir(const Vec3& dir) const;
+    float texturedPower() const;  // spot with a texture, projector
+    AreaPoint sampleCylinderPoint(const Vec2& u) const;
     // sampleLi's sample for an area light's point a. Only the side matters for the one-sided
     // emission: no normalised direction needed (the connection computes the unit direction and
     // the distance once).
@@ -124,5 +168,9 @@ private:
     // sampleLi for all but mesh area lights.
     [[gnu::noinline]] LightSampleLi sampleLiOther(const Scene& scene, const Vec3& refP, const Vec2& u) const;
 };
+
+// Mitsuba's parse_fov: the horizontal field of view (degrees) of a fov given along `axis` of an
+// image of aspect width / height (the projector's, core/textured_lights.cpp).
+float horizontalFovDeg(float fovDeg, FovAxis axis, float aspect);
 
 }  // namespace lt

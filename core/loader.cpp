@@ -7,12 +7,16 @@
 #include <algorithm>
 #include <set>
 #include "bsdf/roughness_bound.h"
+#include "core/curves.h"
 #include "core/envmap.h"
 #include "core/film.h"
 #include "core/image.h"
+#include "core/lights.h"
+#include "core/loader_emitters.h"
 #include "core/loader_materials.h"
 #include "core/loader_xml.h"
 #include "core/mesh_io.h"
+#include "core/mesh_attribute.h"
 
 namespace lt {
 
@@ -25,11 +29,12 @@ using loader::noObjects;
 using loader::nonNegColor;
 using xml::joinList;
 
-const std::vector<std::string> kShapeTypes = {"obj", "ply", "serialized", "rectangle", "cube", "disk", "sphere"};
-const std::vector<std::string> kEmitterTypes = {"area (inside a shape)", "point", "spot", "directional", "constant",
-                                                "envmap"};
+const std::vector<std::string> kShapeTypes = {"obj", "ply", "serialized", "rectangle", "cube", "disk", "sphere",
+                                             "cylinder", "shapegroup", "instance", "linearcurve",
+                                             "bsplinecurve"};
 const std::vector<std::string> kIntegratorTypes = {"path", "bdpt", "vcm", "ptracer", "ppm", "sppm (as ppm)",
-                                                   "direct (as path with max_depth 2)", "moment (its nested integrator)"};
+                                                   "direct (as path with max_depth 2)", "moment (its nested integrator)",
+                                                   "stokes (its nested integrator)"};
 
 // Inverse transpose of the linear part, up to a positive factor; defined for singular matrices too
 // (e.g. a rectangle scaled to zero along its normal keeps its normal).
@@ -53,7 +58,7 @@ public:
             else if (e.tag == "sensor") sensor(e);
             else if (e.tag == "bsdf") bsdfIndex(e);
             else if (e.tag == "shape") shape(e);
-            else if (e.tag == "emitter") topEmitter(e);
+            else if (e.tag == "emitter") emitters_.topEmitter(e);
             else if (e.tag == "sampler" && e.attr("id")) declaredSamplers_.push_back(&e);  // read where referenced
             else if (e.tag == "texture" && e.attr("id")) materials_.texture(e);  // checked now, used where referenced
             else
@@ -63,8 +68,10 @@ public:
         }
         for (const Elem* smp : declaredSamplers_)
             if (!referencedSamplers_.count(smp)) warn(*smp, "sampler declared with an id but used by no sensor: ignored");
-        for (const Elem* a : declaredAreas_)
+        for (const Elem* a : emitters_.declaredAreas)
             if (!referencedAreas_.count(a)) warn(*a, "area emitter declared with an id but used by no shape: ignored");
+        for (const auto& [g, index] : groupIndex_)
+            if (!instancedGroups_.count(g)) warn(*g, "shapegroup used by no instance: not rendered");
         if (!sawSensor_) out_.warnings.push_back(fmt::format("{}: no <sensor>: using the default camera", out_.path));
         if (out_.emitters.empty()) out_.warnings.push_back(fmt::format("{}: the scene has no emitter", out_.path));
         return std::move(out_);
@@ -74,13 +81,16 @@ private:
     xml::Document& doc_;
     SceneDesc out_;
     loader::Materials materials_{doc_, out_.warnings};
+    loader::Emitters emitters_{doc_, materials_, out_.emitters, out_.warnings};
     std::map<const Elem*, int> bsdfIndices_;
-    std::vector<const Elem*> declaredAreas_;
     std::set<const Elem*> referencedAreas_;
     std::vector<const Elem*> declaredSamplers_;
     std::set<const Elem*> referencedSamplers_;
     int defaultBsdf_ = -1;
     bool sawSensor_ = false, sawIntegrator_ = false;
+    int currentGroup_ = -1;                     // the shapegroup whose shapes are being read
+    std::map<const Elem*, int> groupIndex_;     // shapegroups read (index: MeshDesc::group)
+    std::set<const Elem*> instancedGroups_;
 
     void warn(const Elem& e, const std::string& msg) {
         out_.warnings.push_back(fmt::format("{}: {}: {}", e.where(), e.describe(), msg));
@@ -100,6 +110,17 @@ private:
                 xml::fail(e, "moment needs one nested <integrator> (the one that renders)");
             m.finish();
             warn(e, "moment: the nested integrator renders the image (no second moment is written)");
+            sawIntegrator_ = false;
+            integrator(deref(*m.objects[0]));
+            return;
+        }
+        if (t == "stokes") {  // Mitsuba's stokes (polarised variants only): its image is the nested one's S0
+            Props m(e);
+            if (m.objects.size() != 1 || deref(*m.objects[0]).tag != "integrator")
+                xml::fail(e, "stokes needs one nested <integrator> (the one that renders)");
+            m.finish();
+            warn(e, "stokes: the nested integrator renders the image, unpolarised (S0 without polarisation; "
+                    "S1-S3 are not written; Mitsuba's rgb variants refuse stokes)");
             sawIntegrator_ = false;
             integrator(deref(*m.objects[0]));
             return;
@@ -248,10 +269,52 @@ private:
             return;
         }
         sawSensor_ = true;
-        if (e.type() != "perspective")
-            xml::fail(e, fmt::format("unsupported sensor type '{}' (supported: perspective)", e.type()));
+        const std::string type = e.type();
+        if (type != "perspective" && type != "thinlens" && type != "orthographic")
+            xml::fail(e, fmt::format("unsupported sensor type '{}' (supported: perspective, thinlens, orthographic)", type));
         Props p(e);
         CameraDesc& C = out_.camera;
+        C.type = type == "thinlens" ? SensorType::ThinLens : type == "orthographic" ? SensorType::Orthographic
+                                                                                    : SensorType::Perspective;
+        if (C.type != SensorType::Orthographic) perspectiveFov(p, C);
+        C.nearClip = p.getFloat("near_clip", 0.01f);
+        p.requirePositive("near_clip", C.nearClip);
+        C.farClip = p.getFloat("far_clip", 10000.f);
+        if (!(C.farClip > C.nearClip)) p.failAt("far_clip", fmt::format("must be > near_clip (got {})", C.farClip));
+        if (C.type == SensorType::ThinLens) {
+            // Mitsuba: aperture_radius has no default; 0 is replaced by float epsilon (with a
+            // warning), which is the pinhole here. focus_distance defaults to far_clip.
+            if (!p.has("aperture_radius")) p.failAt("aperture_radius", "is required by thinlens (Mitsuba has no default)");
+            C.apertureRadius = p.getFloat("aperture_radius", 0.f);
+            p.requireNonNegative("aperture_radius", C.apertureRadius);
+            C.focusDistance = p.getFloat("focus_distance", C.farClip);
+            p.requirePositive("focus_distance", C.focusDistance);
+            if (C.apertureRadius == 0.f) {
+                warn(e, "thinlens with aperture_radius 0: rendered as the pinhole (perspective)");
+                C.type = SensorType::Perspective;
+            }
+        } else if (C.type == SensorType::Perspective) {
+            p.requirePositive("focus_distance", p.getFloat("focus_distance", 1.f));  // pinhole: ignored
+        }
+        C.toWorld = p.getTransform("to_world");
+        if (C.type == SensorType::Orthographic) {
+            // Mitsuba's to_world scales the film (its x and y axes span the film rectangle); a
+            // projective row or axes that span no plane with the viewing direction are refused.
+            glm::mat3 l(C.toWorld);
+            const float proj = std::abs(C.toWorld[0][3]) + std::abs(C.toWorld[1][3]) + std::abs(C.toWorld[2][3]) +
+                               std::abs(C.toWorld[3][3] - 1.f);
+            const float det = glm::length(l[2]) > 0.f ? glm::determinant(glm::mat3(l[0], l[1], glm::normalize(l[2]))) : 0.f;
+            if (!(proj < 1e-3f) || !(std::abs(det) > 0.f) || !std::isfinite(det))
+                p.failAt("to_world", "the orthographic camera's transform must be affine with x, y and z axes spanning space");
+        } else {
+            perspectiveFrame(e, p, C);
+        }
+        sensorChildren(p);
+        p.finish();
+    }
+
+    // fov, fov_axis, focal_length of perspective and thinlens (Mitsuba's parse_fov).
+    void perspectiveFov(Props& p, CameraDesc& C) {
         std::string axis = xml::lower(p.getString("fov_axis", "x"));
         static const std::pair<const char*, FovAxis> axes[] = {{"x", FovAxis::X}, {"y", FovAxis::Y},
             {"smaller", FovAxis::Smaller}, {"larger", FovAxis::Larger}, {"diagonal", FovAxis::Diagonal}};
@@ -266,26 +329,12 @@ private:
                 p.failAt("fov", fmt::format("must be in (0, 180) degrees (got {})", C.fovDeg));
         } else {
             // Mitsuba: 35 mm film equivalent focal length (default 50mm), along the diagonal.
-            float f = 50.f;
-            if (p.isString("focal_length")) {
-                std::string s = p.getString("focal_length", "50mm");
-                if (s.size() > 2 && s.substr(s.size() - 2) == "mm") s.resize(s.size() - 2);
-                auto n = xml::parseNumbers(s);
-                if (!n || n->size() != 1) p.failAt("focal_length", "expected a length like \"50mm\"");
-                f = float((*n)[0]);
-            } else {
-                f = p.getFloat("focal_length", 50.f);
-            }
-            p.requirePositive("focal_length", f);
-            C.fovDeg = glm::degrees(2.f * std::atan(std::sqrt(36.f * 36.f + 24.f * 24.f) / (2.f * f)));
+            C.fovDeg = loader::focalLengthFovDeg(p);
             C.fovAxis = FovAxis::Diagonal;
         }
-        C.nearClip = p.getFloat("near_clip", 0.01f);
-        p.requirePositive("near_clip", C.nearClip);
-        float farClip = p.getFloat("far_clip", 10000.f);
-        if (!(farClip > C.nearClip)) p.failAt("far_clip", fmt::format("must be > near_clip (got {})", farClip));
-        p.requirePositive("focus_distance", p.getFloat("focus_distance", 1.f));  // pinhole: ignored
-        C.toWorld = p.getTransform("to_world");
+    }
+
+    void perspectiveFrame(const Elem& e, Props& p, CameraDesc& C) {
         // Mitsuba refuses a camera frame with scale (an axis not of unit length) or a projective
         // row, and accepts a sheared one, which the camera orthonormalises (core/camera.cpp:
         // forward kept).
@@ -301,6 +350,9 @@ private:
             p.failAt("to_world", "the camera transform must be rigid up to shear: no scale factors (Mitsuba refuses "
                                  "them too)");
         if (!(shearErr < 1e-3f)) warn(e, "the camera transform is sheared: its axes are orthonormalised (forward kept)");
+    }
+
+    void sensorChildren(Props& p) {
         bool sawFilm = false, sawSampler = false;
         for (const Elem* r : p.objects) {
             const Elem* o = &deref(*r);  // a sampler may be declared at the top level and referenced
@@ -312,7 +364,6 @@ private:
             } else
                 xml::fail(*r, "unexpected element inside <sensor> (supported: one film, one sampler or a <ref> to one)");
         }
-        p.finish();
     }
 
     void film(const Elem& e) {
@@ -424,114 +475,8 @@ private:
     }
 
 
-    // ---- emitters --------------------------------------------------------------------------
-    EmitterDesc areaDesc(const Elem& e) {
-        Props p(e);
-        EmitterDesc d;
-        d.type = EmitterType::Area;
-        d.source = e.where();
-        d.value = nonNegColor(p, "radiance", Color(1.f));
-        p.ignore({"sampling_weight"});
-        noObjects(p, "textures are not supported");
-        p.finish();
-        return d;
-    }
-
-    void topEmitter(const Elem& e) {
-        std::string t = e.type();
-        if (t == "area") {
-            if (!e.attr("id"))
-                xml::fail(e, "an area emitter must be inside a <shape> (or have an id and be referenced by shapes)");
-            areaDesc(e);  // checks it now
-            declaredAreas_.push_back(&e);
-            return;
-        }
-        if (!isIn({"point", "spot", "directional", "constant", "envmap"}, t))
-            xml::fail(e, fmt::format("unsupported emitter type '{}' (supported: {})", t, joinList(kEmitterTypes)));
-        if (t == "constant" || t == "envmap")  // a ray leaving the scene sees one light (core/scene.cpp)
-            for (const EmitterDesc& o : out_.emitters)
-                if (o.type == EmitterType::Constant || o.type == EmitterType::Envmap)
-                    xml::fail(e, fmt::format("only one environment emitter (constant or envmap) per scene, as in "
-                                             "Mitsuba 3 (the other one: {})", o.source));
-        Props p(e);
-        EmitterDesc d;
-        d.source = e.where();
-        if (t == "point" || t == "spot") {
-            d.type = t == "point" ? EmitterType::Point : EmitterType::Spot;
-            d.value = nonNegColor(p, "intensity", Color(1.f));
-            Mat4 m = p.getTransform("to_world");
-            if (t == "point" && p.has("position")) {
-                if (p.has("to_world")) p.failAt("position", "give either position or to_world");
-                d.position = p.getPoint("position", Vec3(0.f));
-            } else {
-                d.position = transformPoint(m, Vec3(0.f));
-            }
-            if (t == "spot") {
-                d.cutoffAngleDeg = p.getFloat("cutoff_angle", 20.f);
-                if (!(d.cutoffAngleDeg > 0.f && d.cutoffAngleDeg <= 90.f))
-                    p.failAt("cutoff_angle", fmt::format("must be in (0, 90] degrees (got {})", d.cutoffAngleDeg));
-                d.beamWidthDeg = p.getFloat("beam_width", 0.75f * d.cutoffAngleDeg);
-                p.requirePositive("beam_width", d.beamWidthDeg);
-                if (d.beamWidthDeg > d.cutoffAngleDeg) {
-                    warn(e, "beam_width > cutoff_angle: clamped to cutoff_angle");
-                    d.beamWidthDeg = d.cutoffAngleDeg;
-                }
-                Vec3 dir = transformVector(m, Vec3(0, 0, 1));
-                if (!(glm::length(dir) > 0.f)) p.failAt("to_world", "the transform maps +Z to zero");
-                d.direction = glm::normalize(dir);
-            }
-        } else if (t == "directional") {
-            d.type = EmitterType::Directional;
-            d.value = nonNegColor(p, "irradiance", Color(1.f));
-            Mat4 m = p.getTransform("to_world");
-            Vec3 dir = transformVector(m, Vec3(0, 0, 1));
-            if (p.has("direction")) {
-                if (p.has("to_world")) p.failAt("direction", "give either direction or to_world");
-                dir = p.getPoint("direction", Vec3(0, 0, 1));
-            }
-            if (!(glm::length(dir) > 0.f)) p.failAt(p.has("direction") ? "direction" : "to_world", "zero direction");
-            d.direction = glm::normalize(dir);
-        } else if (t == "envmap") {
-            // Mitsuba 3's envmap (core/envmap.h): filename, scale, to_world, mis_compensation
-            // (its `bitmap` and `data` exist only through its Python/C++ API).
-            d.type = EmitterType::Envmap;
-            if (!p.has("filename")) xml::fail(e, "parameter 'filename' is required for an envmap emitter");
-            const std::string filename = p.getString("filename", "");
-            std::string tried;
-            d.filename = xml::resolveFile(doc_, e, filename, tried);
-            if (d.filename.empty())
-                p.failAt("filename", fmt::format("environment map '{}' not found (looked for: {})", filename, tried));
-            d.scale = p.getFloat("scale", 1.f);
-            if (!(std::isfinite(d.scale) && d.scale >= 0.f))
-                p.failAt("scale", fmt::format("must be finite and >= 0 (got {})", d.scale));
-            d.toWorld = p.getTransform("to_world");
-            if (!isOrthonormal(d.toWorld))
-                p.failAt("to_world", "must be a rotation (Mitsuba applies it to unit directions: no scale or shear; "
-                                     "a translation is ignored)");
-            if (p.getBool("mis_compensation", false))
-                warn(e, "mis_compensation is ignored: the map is sampled in proportion to its luminance times "
-                        "sin(theta), as with mis_compensation false");
-        } else {
-            d.type = EmitterType::Constant;
-            d.value = nonNegColor(p, "radiance", Color(1.f));
-        }
-        p.ignore({"sampling_weight"});
-        noObjects(p, "textures and nested plugins are not supported");
-        p.finish();
-        if (d.type == EmitterType::Envmap) {  // (read once the parameters are known to be valid)
-            try {
-                d.envmap = loadEnvironmentMap(d.filename, d.toWorld, d.scale);
-            } catch (const ImageError& ex) {
-                p.failAt("filename", ex.what());
-            } catch (const EnvmapError& ex) {
-                p.failAt("filename", ex.what());
-            }
-        }
-        out_.emitters.push_back(d);
-    }
-
     // ---- shapes ----------------------------------------------------------------------------
-    MeshDesc loadMeshFile(Props& p, const std::string& t) {
+    MeshDesc loadMeshFile(Props& p, const std::string& t, MeshAttributes* attributes = nullptr) {
         std::string filename = p.getString("filename", "");
         if (!p.has("filename")) xml::fail(p.owner, fmt::format("parameter 'filename' is required for a {} shape", t));
         std::string tried;
@@ -543,7 +488,7 @@ private:
         try {
             bool fileFaceNormals = false;
             MeshDesc m = t == "obj"   ? readObj(path, flipTex)
-                         : t == "ply" ? readPly(path)
+                         : t == "ply" ? readPly(path, attributes)
                                       : readSerialized(path, shapeIndex, &fileFaceNormals);
             validateMesh(m, path);
             if (m.indices.empty()) throw MeshError(fmt::format("{}: the file contains no triangles", path));
@@ -561,7 +506,7 @@ private:
         if (!emitter) return -1;
         if (emitter->type() != "area")
             xml::fail(*emitter, fmt::format("only area emitters can be attached to a shape (got '{}')", emitter->type()));
-        out_.emitters.push_back(areaDesc(*emitter));
+        out_.emitters.push_back(emitters_.areaDesc(*emitter));
         return int(out_.emitters.size()) - 1;
     }
 
@@ -569,18 +514,26 @@ private:
         std::string t = e.type();
         if (!isIn(kShapeTypes, t))
             xml::fail(e, fmt::format("unsupported shape type '{}' (supported: {})", t, joinList(kShapeTypes)));
+        if (t == "shapegroup" || t == "instance") return t == "instance" ? instance(e) : (void)shapeGroup(e);
         Props p(e);
         Mat4 M = p.getTransform("to_world");
         bool flip = p.getBool("flip_normals", false);
         bool faceNormals = p.getBool("face_normals", false);
         int bsdf = -1;
+        Opacity opacity;  // a mask bsdf's (core/opacity.h)
         const Elem* emitter = nullptr;
+        const Elem* attributeBsdf = nullptr;  // a material that reads a mesh attribute: built per mesh
         for (const Elem* o : p.objects) {
             const Elem& target = deref(*o);
             if (target.tag == "bsdf") {
-                if (bsdf >= 0) xml::fail(*o, "a shape can have only one bsdf");
-                bsdf = bsdfIndex(target);
+                if (bsdf >= 0 || attributeBsdf) xml::fail(*o, "a shape can have only one bsdf");
+                if (loader::usesMeshAttribute(doc_, target)) attributeBsdf = &target;
+                else bsdf = bsdfIndex(target);
+                opacity = materials_.opacity(target);
             } else if (target.tag == "emitter") {
+                if (currentGroup_ >= 0)
+                    xml::fail(*o, "an emitter inside a shapegroup is not supported (as in Mitsuba 3): attach it to a "
+                                  "shape outside the group");
                 if (emitter) xml::fail(*o, "a shape can have only one emitter");
                 emitter = &target;
                 if (&target != o) referencedAreas_.insert(&target);
@@ -589,7 +542,17 @@ private:
                                           "either; this is a <{}>)", target.tag));
             }
         }
+        // (an emitter seen through its own cut-outs would need the mask in the light's sampling too)
+        if (emitter && opacity.masked()) xml::fail(e, "a mask bsdf on an emitting shape is not supported");
         std::string name = e.attr("id") ? *e.attr("id") : t;
+        if (attributeBsdf && t != "ply")
+            xml::fail(*attributeBsdf, fmt::format("a mesh_attribute texture reads a PLY mesh's attributes: this {} "
+                                                  "shape has none", t));
+        if (t == "cylinder") {
+            if (opacity.masked()) xml::fail(e, "a mask bsdf on a cylinder is not supported (meshes and spheres take one)");
+            return cylinder(p, M, flip, name, bsdf, emitter);
+        }
+        if (t == "linearcurve" || t == "bsplinecurve") return curve(p, t, M, flip, opacity, name, bsdf, emitter);
         if (t == "sphere") {
             Vec3 c = p.getPoint("center", Vec3(0.f));
             float r = p.getFloat("radius", 1.f);
@@ -606,16 +569,20 @@ private:
             sd.name = name;
             sd.center = transformPoint(M, c);
             sd.radius = r * s;
+            sd.toLocal = glm::transpose(l / s);  // (l / s is a rotation: checked above)
             sd.flipNormals = flip;
             sd.bsdf = bsdf >= 0 ? bsdf : defaultBsdf();
             sd.emitter = shapeEmitter(emitter);
+            sd.group = currentGroup_;
+            sd.opacity = opacity;
             out_.spheres.push_back(sd);
             return;
         }
+        MeshAttributes attributes;
         MeshDesc m = (t == "rectangle") ? makeRectangle()
                      : (t == "cube")    ? makeCube()
                      : (t == "disk")    ? makeDisk(128)
-                                        : loadMeshFile(p, t);
+                                        : loadMeshFile(p, t, &attributes);
         p.finish();
         if (faceNormals) m.normals.clear();
         glm::mat3 N = normalMatrix(M);
@@ -647,8 +614,135 @@ private:
         }
         m.name = e.attr("id") ? name : m.name;
         m.bsdf = bsdf >= 0 ? bsdf : defaultBsdf();
+        if (attributeBsdf) m.bsdf = attributeMaterial(*attributeBsdf, m, attributes, e);
+        m.group = currentGroup_;
         m.emitter = shapeEmitter(emitter);
+        m.opacity = opacity;
         out_.meshes.push_back(std::move(m));
+    }
+
+    // ---- cylinder, shapegroup, instance, mesh attributes (core/cylinder.h, core/instancing.h,
+    // core/mesh_attribute.h) ------------------------------------------------------------------
+    // Mitsuba's cylinder: to_world * translate(p0) * to_frame(p1 - p0) * scale(r, r, |p1 - p0|),
+    // in double precision. Its intersection assumes a circular, right cylinder (Mitsuba warns
+    // otherwise and then samples with the wrong area): shear and unequal x/y scales are refused.
+    void cylinder(Props& p, const Mat4& M, bool flip, const std::string& name, int bsdf, const Elem* emitter) {
+        const Vec3 p0 = p.getPoint("p0", Vec3(0.f)), p1 = p.getPoint("p1", Vec3(0.f, 0.f, 1.f));
+        const float r = p.getFloat("radius", 1.f);
+        p.requirePositive("radius", r);
+        p.ignore({"silhouette_sampling_weight"});  // (differentiable rendering only)
+        p.finish();
+        const glm::dvec3 d = glm::dvec3(p1) - glm::dvec3(p0);
+        const double len = glm::length(d);
+        if (!(len > 0.0)) p.failAt("p1", "p0 and p1 coincide: the cylinder has no length");
+        const glm::dvec3 n = d / len;  // Mitsuba's Frame3f(n) (core/math.h's Frame: the same basis)
+        const double sign = std::copysign(1.0, n.z), a = -1.0 / (sign + n.z), b = n.x * n.y * a;
+        const glm::dvec3 s(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), t(b, sign + n.y * n.y * a, -n.y);
+        glm::dmat4 local(1.0);
+        local[0] = glm::dvec4(s * double(r), 0.0);
+        local[1] = glm::dvec4(t * double(r), 0.0);
+        local[2] = glm::dvec4(d, 0.0);
+        local[3] = glm::dvec4(glm::dvec3(p0), 1.0);
+        CylinderDesc c;
+        c.toWorld = glm::dmat4(M) * local;
+        const glm::dvec3 c0(c.toWorld[0]), c1(c.toWorld[1]), c2(c.toWorld[2]);
+        const double r0 = glm::length(c0), r1 = glm::length(c1), l = glm::length(c2);
+        const double tol = 1e-5 * std::max({r0, r1, l});
+        if (!(r0 > 0.0 && l > 0.0) || std::abs(r0 - r1) > 1e-5 * r0 || std::abs(glm::dot(c0, c1)) > tol * r0 ||
+            std::abs(glm::dot(c0, c2)) > tol * l || std::abs(glm::dot(c1, c2)) > tol * l ||
+            std::abs(c.toWorld[0][3]) + std::abs(c.toWorld[1][3]) + std::abs(c.toWorld[2][3]) > 0.0)
+            p.failAt("to_world", "a cylinder's to_world may rotate, translate, scale uniformly across its axis and "
+                                 "along it; no shear or unequal scales across the axis (as Mitsuba 3 requires)");
+        c.radius = r0;
+        c.length = l;
+        c.name = name;
+        c.flipNormals = flip;
+        c.bsdf = bsdf >= 0 ? bsdf : defaultBsdf();
+        c.emitter = shapeEmitter(emitter);
+        c.group = currentGroup_;
+        out_.cylinders.push_back(c);
+    }
+
+    // Mitsuba's linearcurve and bsplinecurve (core/curves.h): positions mapped by to_world, radii
+    // not. Not emitters (Mitsuba's curves cannot sample positions), no mask, no flip_normals.
+    void curve(Props& p, const std::string& t, const Mat4& M, bool flip, const Opacity& opacity,
+               const std::string& name, int bsdf, const Elem* emitter) {
+        if (emitter)
+            xml::fail(*emitter, fmt::format("a {} cannot be an area emitter (Mitsuba 3's curves cannot sample "
+                                            "positions on themselves either)", t));
+        if (flip) p.failAt("flip_normals", fmt::format("not supported on a {} (its back faces are culled)", t));
+        if (opacity.masked()) xml::fail(p.owner, fmt::format("a mask bsdf on a {} is not supported", t));
+        const std::string filename = p.getString("filename", "");
+        if (!p.has("filename")) xml::fail(p.owner, fmt::format("parameter 'filename' is required for a {} shape", t));
+        p.ignore({"silhouette_sampling_weight"});  // (differentiable rendering only)
+        p.finish();
+        std::string tried;
+        const std::string path = xml::resolveFile(doc_, p.owner, filename, tried);
+        if (path.empty()) p.failAt("filename", fmt::format("curve file '{}' not found (looked for: {})", filename, tried));
+        CurveDesc c;
+        try {
+            readCurveFile(path, t == "bsplinecurve", M, c);
+        } catch (const CurveError& ex) {
+            p.failAt("filename", ex.what());
+        }
+        c.name = name;
+        c.file = path;
+        c.bspline = t == "bsplinecurve";
+        c.bsdf = bsdf >= 0 ? bsdf : defaultBsdf();
+        c.group = currentGroup_;
+        out_.curves.push_back(std::move(c));
+    }
+
+    // Mitsuba's shapegroup: its shapes (no emitters) in the group's space, rendered only through
+    // instances. Read where it is declared or first referenced, once.
+    int shapeGroup(const Elem& e) {
+        if (auto it = groupIndex_.find(&e); it != groupIndex_.end()) return it->second;
+        if (currentGroup_ >= 0) xml::fail(e, "a shapegroup inside a shapegroup is not supported");
+        Props p(e);
+        const int index = out_.groupCount++;
+        groupIndex_[&e] = index;
+        currentGroup_ = index;
+        for (const Elem* o : p.objects) {
+            const Elem& target = deref(*o);
+            if (target.tag != "shape")
+                xml::fail(*o, fmt::format("a shapegroup holds shapes only (this is a <{}>)", target.tag));
+            shape(target);
+        }
+        currentGroup_ = -1;
+        p.finish();
+        return index;
+    }
+
+    // Mitsuba's instance: a reference to a shapegroup and to_world.
+    void instance(const Elem& e) {
+        if (currentGroup_ >= 0) xml::fail(e, "an instance inside a shapegroup is not supported");
+        Props p(e);
+        InstanceDesc in;
+        in.toWorld = p.getTransform("to_world");
+        in.source = e.where();
+        if (p.objects.size() != 1) xml::fail(e, "an instance needs one <ref> to a shapegroup");
+        const Elem& g = deref(*p.objects[0]);
+        if (g.tag != "shape" || g.type() != "shapegroup")
+            xml::fail(*p.objects[0], fmt::format("an instance refers to a shapegroup (this is {})", g.describe()));
+        if (!(std::abs(glm::determinant(glm::mat3(in.toWorld))) > 0.f))
+            p.failAt("to_world", "the transform is singular");
+        p.finish();
+        in.group = shapeGroup(g);
+        instancedGroups_.insert(&g);
+        out_.instances.push_back(in);
+    }
+
+    // The material of a PLY mesh whose textures read its attributes: built for this mesh alone.
+    int attributeMaterial(const Elem& bsdf, MeshDesc& m, const MeshAttributes& attributes, const Elem& shape) {
+        if (m.indices.size() / 3 > kMaxAttributeTriangles)
+            xml::fail(shape, fmt::format("a mesh read by a mesh_attribute texture may have at most {} triangles "
+                                         "(this one has {})", kMaxAttributeTriangles, m.indices.size() / 3));
+        const loader::Materials::ShapeAttributes sa{&attributes, &m.indices,
+                                                    fmt::format("the mesh of {} ({})", shape.describe(), shape.where())};
+        BxdfPtr b = materials_.bxdfForShape(bsdf, sa);
+        m.attributeKey = true;
+        out_.bsdfs.push_back(std::move(b));
+        return int(out_.bsdfs.size()) - 1;
     }
 };
 

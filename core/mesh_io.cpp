@@ -254,9 +254,87 @@ private:
     PlyFormat fmt_;
 };
 
+// Mitsuba's attribute groups of a PLY element (ply.h, find_other_fields): which properties form
+// which attribute, by the rules of readPly's comment. `reserved`: the element's own properties.
+struct PlyAttributeGroup {
+    std::string name;
+    std::vector<int> props;
+};
+std::vector<PlyAttributeGroup> plyAttributeGroups(const PlyElement& el, const std::string& type,
+                                                  const std::vector<std::string>& reserved) {
+    std::vector<PlyAttributeGroup> out;
+    auto find = [&](const char* n) {
+        for (int i = 0; i < int(el.props.size()); ++i)
+            if (!el.props[i].isList && el.props[i].name == n) return i;
+        return -1;
+    };
+    std::vector<std::string> skip = reserved;
+    const int r = find("r") >= 0 ? find("r") : find("red"), g = find("g") >= 0 ? find("g") : find("green"),
+              b = find("b") >= 0 ? find("b") : find("blue");
+    if (r >= 0 && g >= 0 && b >= 0) out.push_back({type + "color", {r, g, b}});
+    for (const char* n : {"r", "g", "b", "a", "red", "green", "blue", "alpha"}) skip.push_back(n);
+    static const char* kPostfixes[4] = {"xr01", "yg12", "zb23", "wa34"};  // [level][category]
+    std::vector<std::string> seen;
+    PlyAttributeGroup cur;
+    std::string prefix;
+    int category = -1;
+    auto flush = [&] {
+        if (category >= 0 && (cur.props.size() == 1 || cur.props.size() == 3)) {
+            cur.name = type + prefix + (category == 1 ? "_color" : "");
+            out.push_back(cur);
+            seen.push_back(prefix);
+        }
+        cur = {};
+        category = -1;
+    };
+    for (int i = 0; i < int(el.props.size()); ++i) {
+        const PlyProp& p = el.props[i];
+        if (p.isList || std::find(skip.begin(), skip.end(), p.name) != skip.end()) continue;
+        const size_t us = p.name.find_last_of('_');
+        if (us == std::string::npos || us + 2 != p.name.size()) {
+            flush();
+            continue;
+        }
+        const std::string pre = p.name.substr(0, us);
+        const char post = p.name.back();
+        if (category >= 0 && pre != prefix) flush();
+        if (category < 0) {
+            if (std::find(seen.begin(), seen.end(), pre) != seen.end()) continue;
+            const char* c = std::strchr(kPostfixes[0], post);
+            if (!c || !post) continue;
+            category = int(c - kPostfixes[0]);
+            prefix = pre;
+        } else if (cur.props.size() >= 4 || post != kPostfixes[cur.props.size()][category]) {
+            cur.props.clear();  // an invalid sequence: the attribute is ignored
+            category = -1;
+            continue;
+        }
+        cur.props.push_back(i);
+    }
+    flush();
+    return out;
+}
+
+// A property's value as an attribute: integers normalised to [0, 1] and sRGB-decoded (Mitsuba's
+// ENormalized | EGamma flags on integer PLY fields).
+float plyAttributeValue(PlyType t, double v) {
+    double mx = 0.0;
+    switch (t) {
+        case PlyType::F32: case PlyType::F64: return float(v);
+        case PlyType::I8: mx = 127.0; break;
+        case PlyType::U8: mx = 255.0; break;
+        case PlyType::I16: mx = 32767.0; break;
+        case PlyType::U16: mx = 65535.0; break;
+        case PlyType::I32: mx = 2147483647.0; break;
+        case PlyType::U32: mx = 4294967295.0; break;
+    }
+    const double x = std::clamp(v / mx, 0.0, 1.0);
+    return float(x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4));
+}
+
 }  // namespace
 
-MeshDesc readPly(const std::string& path) {
+MeshDesc readPly(const std::string& path, MeshAttributes* attributes) {
     std::string data = readAll(path);
     // ---- header
     size_t pos = 0;
@@ -356,6 +434,13 @@ MeshDesc readPly(const std::string& path) {
             if (ix[0] < 0 || ix[1] < 0 || ix[2] < 0)
                 throw MeshError(fmt::format("{}: the vertex element has no x, y, z properties", path));
             bool hasN = in_[0] >= 0 && in_[1] >= 0 && in_[2] >= 0, hasUv = iuv[0] >= 0 && iuv[1] >= 0;
+            std::vector<std::string> reserved = {"x", "y", "z", "nx", "ny", "nz"};
+            for (int k = 0; k < 2; ++k)
+                if (hasUv) reserved.push_back(el.props[size_t(iuv[k])].name);
+            const std::vector<PlyAttributeGroup> groups =
+                attributes ? plyAttributeGroups(el, "vertex_", reserved) : std::vector<PlyAttributeGroup>{};
+            const size_t firstAttr = attributes ? attributes->size() : 0;
+            for (const PlyAttributeGroup& g : groups) attributes->push_back({g.name, int(g.props.size()), {}});
             m.positions.reserve(el.count);
             std::vector<double> row(el.props.size());
             for (size_t v = 0; v < el.count; ++v) {
@@ -371,6 +456,9 @@ MeshDesc readPly(const std::string& path) {
                 m.positions.emplace_back(row[ix[0]], row[ix[1]], row[ix[2]]);
                 if (hasN) m.normals.emplace_back(row[in_[0]], row[in_[1]], row[in_[2]]);
                 if (hasUv) m.uvs.emplace_back(row[iuv[0]], row[iuv[1]]);
+                for (size_t k = 0; k < groups.size(); ++k)
+                    for (int pi : groups[k].props)
+                        (*attributes)[firstAttr + k].values.push_back(plyAttributeValue(el.props[size_t(pi)].type, row[size_t(pi)]));
             }
         } else if (el.name == "face") {
             int li = -1;
@@ -379,12 +467,17 @@ MeshDesc readPly(const std::string& path) {
                     li = i;
             if (li < 0 && el.count > 0)
                 throw MeshError(fmt::format("{}: the face element has no list property vertex_indices", path));
-            std::vector<double> poly;
+            const std::vector<PlyAttributeGroup> groups =
+                attributes ? plyAttributeGroups(el, "face_", {}) : std::vector<PlyAttributeGroup>{};
+            const size_t firstAttr = attributes ? attributes->size() : 0;
+            for (const PlyAttributeGroup& g : groups) attributes->push_back({g.name, int(g.props.size()), {}});
+            std::vector<double> poly, row(el.props.size());
             for (size_t f = 0; f < el.count; ++f) {
+                size_t trianglesBefore = m.indices.size() / 3;
                 for (size_t i = 0; i < el.props.size(); ++i) {
                     const PlyProp& p = el.props[i];
                     if (!p.isList) {
-                        in.read(p.type, "face data");
+                        row[i] = in.read(p.type, "face data");
                         continue;
                     }
                     const long long c = in.listCount(p.countType, "a face vertex count", el.name, f);
@@ -402,6 +495,12 @@ MeshDesc readPly(const std::string& path) {
                         m.indices.push_back(uint32_t(poly[k + 1]));
                     }
                 }
+                // A face's attributes on each of its triangles (the fan above).
+                for (size_t t = trianglesBefore; t < m.indices.size() / 3; ++t)
+                    for (size_t k = 0; k < groups.size(); ++k)
+                        for (int pi : groups[k].props)
+                            (*attributes)[firstAttr + k].values.push_back(
+                                plyAttributeValue(el.props[size_t(pi)].type, row[size_t(pi)]));
             }
         } else {
             // (An element without properties has rows of nothing: a count of 2^60 is not a loop.)

@@ -4,6 +4,7 @@
 #pragma once
 #include <stdexcept>
 #include <string>
+#include "core/mesh_attribute.h"
 #include "core/scene_desc.h"
 
 namespace lt {
@@ -19,7 +20,12 @@ MeshDesc readObj(const std::string& path, bool flipV);
 // PLY: ascii, binary_little_endian, binary_big_endian. Vertex x y z [nx ny nz] [u v | s t |
 // texture_u texture_v | texture_s texture_t]; face list vertex_indices / vertex_index (polygons
 // fan-triangulated). Property types char..double (int8..float64 spellings too).
-MeshDesc readPly(const std::string& path);
+// attributes: the other vertex and face properties as Mitsuba's PLY plugin names them
+// (core/mesh_attribute.h): r g b / red green blue -> "<element>_color"; fields prefix_x, _y, _z
+// (or _r _g _b, _0 _1 _2, _1 _2 _3; 1 or 3 of them, consecutive) -> "<element>_prefix" (an r g b
+// group: "<element>_prefix_color"); integer fields normalised to [0, 1] and sRGB-decoded, as
+// Mitsuba's Struct conversion does. Others are ignored.
+MeshDesc readPly(const std::string& path, MeshAttributes* attributes = nullptr);
 // Mitsuba .serialized (format 0x041C, versions 3 and 4), mesh number shapeIndex. `faceNormals`
 // is set from the file's flag 0x0010.
 MeshDesc readSerialized(const std::string& path, int shapeIndex, bool* faceNormals = nullptr);

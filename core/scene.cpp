@@ -1,4 +1,7 @@
 #include "core/scene.h"
+#include "core/curves.h"
+#include "core/mesh_attribute.h"
+#include "bsdf/normal_perturbation.h"
 #include <fmt/core.h>
 #include <immintrin.h>
 #include <bit>
@@ -53,12 +56,25 @@ double sphereHit(const SphereGeom& s, double ox, double oy, double oz, double dx
     return -1;
 }
 
+// sphereHit through the sphere's opacity mask (core/opacity.h): the nearest root in [tnear, tfar]
+// that the mask accepts (the far one when it rejects the near one), or a negative value.
+double sphereHitMasked(const SphereGeom& s, const RTCRay& r, unsigned geomId, unsigned instId) {
+    const double t = sphereHit(s, r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear, r.tfar);
+    if (t < 0 || !s.mask) return t;
+    const float o[3] = {r.org_x, r.org_y, r.org_z}, d[3] = {r.dir_x, r.dir_y, r.dir_z};
+    const double c[3] = {s.cx, s.cy, s.cz};
+    const Opacity& op = s.mask->opacity;
+    if (acceptSphereHit(op, c, s.mask->toLocal, o, d, t, geomId, instId)) return t;
+    const double t1 = sphereHit(s, r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, std::nextafter(t, kInf), r.tfar);
+    return t1 >= 0 && acceptSphereHit(op, c, s.mask->toLocal, o, d, t1, geomId, instId) ? t1 : -1;
+}
+
 void sphereIntersect(const RTCIntersectFunctionNArguments* args) {
     if (!args->valid[0]) return;
     const auto* s = static_cast<const SphereGeom*>(args->geometryUserPtr);
     RTCRayHit* rh = reinterpret_cast<RTCRayHit*>(args->rayhit);  // N == 1 (rtcIntersect1 only)
     RTCRay& r = rh->ray;
-    double t = sphereHit(*s, r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear, r.tfar);
+    double t = sphereHitMasked(*s, r, args->geomID, args->context->instID[0]);
     if (t < 0) return;
     r.tfar = float(t);
     double px = r.org_x + t * r.dir_x - s->cx, py = r.org_y + t * r.dir_y - s->cy, pz = r.org_z + t * r.dir_z - s->cz;
@@ -69,14 +85,14 @@ void sphereIntersect(const RTCIntersectFunctionNArguments* args) {
     rh->hit.v = 0.f;
     rh->hit.primID = args->primID;
     rh->hit.geomID = args->geomID;
-    rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.instID[0] = args->context->instID[0];  // (the instance it is in, if any: instancing.h)
 }
 
 void sphereOccluded(const RTCOccludedFunctionNArguments* args) {
     if (!args->valid[0]) return;
     const auto* s = static_cast<const SphereGeom*>(args->geometryUserPtr);
     RTCRay* r = reinterpret_cast<RTCRay*>(args->ray);
-    double t = sphereHit(*s, r->org_x, r->org_y, r->org_z, r->dir_x, r->dir_y, r->dir_z, r->tnear, r->tfar);
+    double t = sphereHitMasked(*s, *r, args->geomID, args->context->instID[0]);
     if (t >= 0) r->tfar = -kInf;
 }
 
@@ -122,6 +138,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     rtcSetDeviceErrorFunction(device_, embreeError, nullptr);
     scene_ = rtcNewScene(device_);
     rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+    for (int i = 0; i < desc_.groupCount; ++i) groupScenes_.push_back(rtcNewScene(device_));  // instancing.h
 
     Vec3 lo(kInf), hi(-kInf);
     meshLight_.assign(desc_.meshes.size(), -1);
@@ -137,18 +154,19 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
             vb[3 * v] = m.positions[v].x;
             vb[3 * v + 1] = m.positions[v].y;
             vb[3 * v + 2] = m.positions[v].z;
+            if (m.group >= 0) continue;  // (a shapegroup's: bounded through its instances)
             lo = glm::min(lo, m.positions[v]);
             hi = glm::max(hi, m.positions[v]);
         }
         auto* ib = static_cast<uint32_t*>(
             rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
         std::copy(m.indices.begin(), m.indices.end(), ib);
+        meshMasks_.attach(g, m.opacity, m.uvs.empty() ? nullptr : m.uvs.data(), m.indices.data());  // if masked
         rtcCommitGeometry(g);
-        unsigned id = rtcAttachGeometry(scene_, g);
-        rtcReleaseGeometry(g);
-        if (geoms_.size() <= id) geoms_.resize(id + 1);
+        unsigned id = attach(g, m.group);
         GeomInfo& gi = geoms_[id];
         gi.mesh = int(i);
+        gi.attributeKey = m.attributeKey;
         gi.uvs = m.uvs.empty() ? nullptr : m.uvs.data();
         gi.indices = m.indices.data();
         triangleCount_ += nt;
@@ -216,25 +234,30 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         gi.normals = normalStart[gi.mesh] == size_t(-1) ? nullptr : triNormals_.data() + normalStart[gi.mesh];
         gi.frames = frameStart[gi.mesh] == size_t(-1) ? nullptr : triFrames_.data() + frameStart[gi.mesh];
     }
+    attachCylinders(lo, hi);
+    attachCurves(lo, hi);
     spheres_.reserve(desc_.spheres.size());
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
         const SphereDesc& s = desc_.spheres[i];
         spheres_.push_back({s.center.x, s.center.y, s.center.z, s.radius});
+        if (s.opacity.masked()) spheres_.back().mask = &s;
     }
     // A few spheres are tested directly after Embree's meshes (direct_): with Embree they are a
     // second BVH, traversed by every ray, whose leaves call back into sphereHit.
-    direct_ = !desc_.spheres.empty() && desc_.spheres.size() <= kDirectSpheres;
+    direct_ = !desc_.spheres.empty() && desc_.spheres.size() <= kDirectSpheres && desc_.groupCount == 0;
     if (direct_) embreeGeoms_ = geoms_.size();
     for (size_t i = 0; i < desc_.spheres.size(); ++i) {
         const SphereDesc& s = desc_.spheres[i];
         unsigned id = unsigned(geoms_.size());
-        if (!direct_) id = attachSphere(scene_, i);
+        if (!direct_) attachSphere(s.group < 0 ? scene_ : groupScenes_[size_t(s.group)], i, id);
         if (geoms_.size() <= id) geoms_.resize(id + 1);
         geoms_[id].sphere = int(i);
         geoms_[id].curvature = s.radius > 0.f ? 1.f / s.radius : 0.f;
+        if (s.group >= 0) continue;
         lo = glm::min(lo, s.center - Vec3(s.radius));
         hi = glm::max(hi, s.center + Vec3(s.radius));
     }
+    attachInstances(lo, hi);
     rtcCommitScene(scene_);
 
     camera_ = std::make_unique<Camera>(desc_.camera);
@@ -276,7 +299,9 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
                 l.type = LightType::Envmap;
                 l.envmap = ed.envmap.get();
                 break;
+            case EmitterType::Projector: l.type = LightType::Projector; break;
         }
+        l.setTextures(ed);  // textured area, spot and projector (core/textured_lights.cpp)
         emitterToLight[e] = int(lights_.size());
         lights_.push_back(l);
     }
@@ -320,6 +345,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         lights_[li].invArea = lights_[li].area > 0.f ? 1.f / lights_[li].area : 0.f;
         sphereLight_[i] = li;
     }
+    cylinderLights(emitterToLight);
     // Bounding spheres of the emitting shapes (mayHitEmitter): a mesh's from its emitting
     // triangles' corners (the centre of their box, the largest distance to a corner), a sphere's
     // its own; each radius enlarged by 1e-3 of itself and 1e-5 of the scene's extent, far above
@@ -352,15 +378,19 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
         int bsdf = -1, light = -1;
         if (gi.mesh >= 0) bsdf = desc_.meshes[gi.mesh].bsdf, light = meshLight_[gi.mesh];
         else if (gi.sphere >= 0) bsdf = desc_.spheres[gi.sphere].bsdf, light = sphereLight_[gi.sphere];
+        else if (gi.cylinder >= 0) bsdf = desc_.cylinders[gi.cylinder].bsdf, light = cylinderLight_[gi.cylinder];
+        else if (gi.curve >= 0) bsdf = desc_.curves[gi.curve].bsdf;  // (never emitting: core/curves.h)
         gi.bxdf = bsdf >= 0 ? desc_.bsdfs[bsdf].get() : nullptr;
+        gi.perturb = dynamic_cast<const NormalPerturbation*>(gi.bxdf);
+        gi.tangentFrame = gi.perturb || (gi.bxdf && gi.bxdf->anisotropic());
         gi.light = light >= 0 ? &lights_[light] : nullptr;
         gi.deltaBsdf = gi.bxdf && gi.bxdf->isDelta();
-        gi.textured = gi.bxdf && gi.bxdf->textured();
+        gi.textured = (gi.bxdf && gi.bxdf->textured()) || (gi.light && gi.light->texture);
         gi.roughness = gi.bxdf ? gi.bxdf->roughness() : 1.f;
     }
 }
 
-unsigned Scene::attachSphere(RTCScene scene, size_t i) {
+void Scene::attachSphere(RTCScene scene, size_t i, unsigned id) {
     RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
     rtcSetGeometryUserPrimitiveCount(g, 1);
     rtcSetGeometryUserData(g, &spheres_[i]);
@@ -368,9 +398,8 @@ unsigned Scene::attachSphere(RTCScene scene, size_t i) {
     rtcSetGeometryIntersectFunction(g, sphereIntersect);
     rtcSetGeometryOccludedFunction(g, sphereOccluded);
     rtcCommitGeometry(g);
-    unsigned id = rtcAttachGeometry(scene, g);
+    rtcAttachGeometryByID(scene, g, id);
     rtcReleaseGeometry(g);
-    return id;
 }
 
 RTCScene Scene::embreeScene() const {
@@ -381,10 +410,8 @@ RTCScene Scene::embreeScene() const {
         fullScene_ = rtcNewScene(device_);
         rtcSetSceneBuildQuality(fullScene_, RTC_BUILD_QUALITY_HIGH);
         for (unsigned id = 0; id < embreeGeoms_; ++id) rtcAttachGeometryByID(fullScene_, rtcGetGeometry(scene_, id), id);
-        for (size_t i = 0; i < spheres_.size(); ++i) {
-            const unsigned id = const_cast<Scene*>(this)->attachSphere(fullScene_, i);
-            if (id != embreeGeoms_ + i) throw std::logic_error("embreeScene: unexpected geometry id");
-        }
+        for (size_t i = 0; i < spheres_.size(); ++i)
+            const_cast<Scene*>(this)->attachSphere(fullScene_, i, unsigned(embreeGeoms_ + i));
         rtcCommitScene(fullScene_);
     });
     return fullScene_;
@@ -392,6 +419,7 @@ RTCScene Scene::embreeScene() const {
 
 Scene::~Scene() {
     if (fullScene_) rtcReleaseScene(fullScene_);
+    for (RTCScene s : groupScenes_) rtcReleaseScene(s);
     if (scene_) rtcReleaseScene(scene_);
     if (device_) rtcReleaseDevice(device_);
 }
@@ -451,7 +479,7 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
     if (direct_)  // the spheres after the meshes, as Embree's callback would test them
         for (size_t i = 0; i < spheres_.size(); ++i) {
             const RTCRay& r = rh.ray;
-            const double t = sphereHit(spheres_[i], r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear, r.tfar);
+            const double t = sphereHitMasked(spheres_[i], r, unsigned(embreeGeoms_ + i), RTC_INVALID_GEOMETRY_ID);
             if (t < 0) continue;
             rh.ray.tfar = float(t);
             rh.hit.geomID = unsigned(embreeGeoms_ + i);
@@ -459,6 +487,10 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
         }
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     const GeomInfo& gi = geoms_[rh.hit.geomID];
+    // A hit inside an instance (never with direct_): on the group's shape, in the group's space.
+    const InstanceXf* ix = rh.hit.instID[0] == RTC_INVALID_GEOMETRY_ID
+                               ? nullptr
+                               : &instances_[size_t(geoms_[rh.hit.instID[0]].instance)];
     if constexpr (kFull) {
         hit.t = rh.ray.tfar;
         hit.geomId = int(rh.hit.geomID);
@@ -487,24 +519,42 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
             hit.curvature = tn.curvature;
         }
         if (kFull || gi.textured) {
-            if (gi.uvs) {
+            if (gi.attributeKey) {
+                hit.uv = attributeKey(uint32_t(prim), b1, b2);
+            } else if (gi.uvs) {
                 const uint32_t* idx = gi.indices + 3 * prim;
                 hit.uv = b0 * gi.uvs[idx[0]] + b1 * gi.uvs[idx[1]] + b2 * gi.uvs[idx[2]];
             } else {
                 hit.uv = Vec2(0.f);
             }
         }
+    } else if (gi.cylinder >= 0) {
+        const CylinderSurface c = ix ? cylinderSurface(cylinders_[size_t(gi.cylinder)], toObjectRay(*ix, ray).o,
+                                                       toObjectRay(*ix, ray).d, rh.ray.tfar)
+                                     : cylinderSurface(cylinders_[size_t(gi.cylinder)], ray.o, ray.d, rh.ray.tfar);
+        p = set3(c.p);
+        ns = ng = set3(c.n);
+        if (kFull || gi.textured) hit.uv = c.uv;
+    } else if (gi.curve >= 0) {
+        const Ray lr = ix ? toObjectRay(*ix, ray) : ray;  // (the group's space)
+        const CurveSurface c = curveSurface(desc_.curves[size_t(gi.curve)], rh.hit.primID, rh.hit.u,
+                                            Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), lr.o, lr.d, rh.ray.tfar);
+        p = set3(c.p);
+        ns = ng = set3(c.n);
+        hit.curvature = c.curvature;
+        if (kFull || gi.textured) hit.uv = c.uv;
     } else {
         const SphereDesc& s = desc_.spheres[gi.sphere];
-        Vec3 d = ray.o + rh.ray.tfar * ray.d - s.center;
+        const Ray lr = ix ? toObjectRay(*ix, ray) : ray;  // (the group's space)
+        Vec3 d = lr.o + rh.ray.tfar * lr.d - s.center;
         Vec3 n = glm::normalize(d);
         p = set3(s.center + s.radius * n);  // re-project onto the sphere
         if (s.flipNormals) n = -n;
         ns = ng = set3(n);
         if (kFull || gi.textured) {
             // Mitsuba's sphere: u = phi / (2 pi) with phi in [0, 2 pi), v = theta / pi, about the
-            // sphere's local z (a rotation in the sphere's to_world is not kept: SphereDesc).
-            const Vec3 dl = glm::normalize(d);
+            // sphere's local z (SphereDesc::toLocal: the rotation of its to_world undone).
+            const Vec3 dl = glm::normalize(s.toLocal * d);
             float phi = std::atan2(dl.y, dl.x);
             if (phi < 0.f) phi += 2.f * kPi;
             hit.uv = Vec2(phi * (0.5f * kInvPi), std::acos(std::clamp(dl.z, -1.f, 1.f)) * kInvPi);
@@ -515,9 +565,21 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
     // inside one store and forwarded from the store buffer.
     static_assert(offsetof(SurfacePoint, ng) == offsetof(SurfacePoint, p) + 12 &&
                   offsetof(SurfacePoint, shading) == offsetof(SurfacePoint, ng) + 12);
+    if (ix) {
+        if (frame) ns = set3(frame->n), frame = nullptr;
+        instanceToWorld(*ix, p, ng, ns);
+        hit.curvature *= ix->curvatureScale;
+    }
     SurfacePoint& sp = hit;
     _mm_storeu_ps(&sp.p.x, p);
     _mm_storeu_ps(&sp.ng.x, ng);
+    if (gi.tangentFrame) [[unlikely]] {
+        if (dot3(ns, ng) < 0.f) ns = _mm_xor_ps(ns, _mm_set1_ps(-0.f));
+        const glm::mat3 toWorld = ix ? glm::mat3(ix->toWorld) : glm::mat3(1.f);
+        sp.shading = perturbedFrame(gi, rh.hit.primID, rh.hit.u, rh.hit.v, ray, ix ? &toWorld : nullptr, sp.p, sp.ng,
+                                    frame ? frame->n : toVec3(ns));
+        return true;
+    }
     if (frame) {
         sp.shading = *frame;
         return true;
@@ -526,6 +588,63 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
     if (dot3(ns, ng) < 0.f) ns = _mm_xor_ps(ns, _mm_set1_ps(-0.f));
     sp.shading = Frame(toVec3(ns));
     return true;
+}
+
+// The surface's dp/du and dp/dv as Mitsuba 3 computes them (meshes: from the triangle's uv
+// differences, Frame(ng)'s tangents where it has no uv or they are degenerate; spheres: the
+// analytic parameterisation u = phi / 2 pi, v = theta / pi), the unperturbed frame from them
+// (tangentFrame), and the material's perturbation of it (bsdf/normal_perturbation.h).
+Frame Scene::perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b2, const Ray& ray,
+                            const glm::mat3* toWorld, const Vec3& p, const Vec3& ng, const Vec3& n) const {
+    TangentSpace ts;
+    ts.ng = ng;
+    ts.wo = -ray.d;
+    ts.uv = Vec2(0.f);
+    bool ok = false;
+    if (gi.mesh >= 0) {
+        const MeshTri& tri = gi.tris[prim];
+        if (gi.uvs) {
+            const uint32_t* idx = gi.indices + 3 * size_t(prim);
+            const Vec2 uv0 = gi.uvs[idx[0]], uv1 = gi.uvs[idx[1]], uv2 = gi.uvs[idx[2]];
+            ts.uv = (1.f - b1 - b2) * uv0 + b1 * uv1 + b2 * uv2;
+            const Vec2 duv0 = uv1 - uv0, duv1 = uv2 - uv0;
+            const Vec3 dp0 = tri.p1 - tri.p0, dp1 = tri.p2 - tri.p0;
+            const float det = duv0.x * duv1.y - duv0.y * duv1.x;
+            if (det != 0.f) {
+                const float inv = 1.f / det;
+                ts.dpdu = (duv1.y * dp0 - duv0.y * dp1) * inv;
+                ts.dpdv = (duv0.x * dp1 - duv1.x * dp0) * inv;
+                ok = isFinite(ts.dpdu) && isFinite(ts.dpdv);
+            }
+        }
+    } else if (gi.sphere >= 0) {
+        // (in the sphere's local frame, SphereDesc::toLocal, about its z as its uv; an instance's
+        // hit point taken back to the group's space)
+        const SphereDesc& s = desc_.spheres[gi.sphere];
+        const Vec3 po = toWorld ? Vec3(glm::inverse(*toWorld) * p) : p;  // (instance translations cancel in l)
+        const Vec3 co = toWorld ? Vec3(glm::inverse(*toWorld) * s.center) : s.center;
+        const Vec3 l = glm::normalize(s.toLocal * (toWorld ? po - co : p - s.center));
+        float phi = std::atan2(l.y, l.x);
+        if (phi < 0.f) phi += 2.f * kPi;
+        ts.uv = Vec2(phi * (0.5f * kInvPi), std::acos(std::clamp(l.z, -1.f, 1.f)) * kInvPi);
+        const float rd = std::sqrt(l.x * l.x + l.y * l.y);
+        const glm::mat3 toSphereWorld = glm::transpose(s.toLocal);  // (a rotation)
+        ts.dpdu = toSphereWorld * ((2.f * kPi * s.radius) * Vec3(-l.y, l.x, 0.f));
+        ts.dpdv = toSphereWorld * (rd > 0.f ? (kPi * s.radius) * Vec3(l.z * l.x / rd, l.z * l.y / rd, -rd)
+                                            : Vec3(kPi * s.radius, 0.f, 0.f));
+        ok = isFinite(ts.dpdu) && isFinite(ts.dpdv);
+    }
+    if (ok && toWorld) {  // (the group's space to the world: tangents map by the linear part)
+        ts.dpdu = *toWorld * ts.dpdu;
+        ts.dpdv = *toWorld * ts.dpdv;
+    }
+    if (!ok) {
+        const Frame f(ng);
+        ts.dpdu = f.s;
+        ts.dpdv = f.t;
+    }
+    ts.shading = tangentFrame(n, ts.dpdu);
+    return gi.perturb ? gi.perturb->frame(ts) : ts.shading;
 }
 
 bool Scene::intersect(const Ray& ray, SurfaceHit& hit) const { return intersectImpl(ray, hit); }
@@ -537,8 +656,8 @@ bool Scene::occludedRay(const Ray& r) const {
     RTCRay rr;
     fillRay(rr, r);
     if (direct_)  // the spheres first: a hit on one ends the query without Embree
-        for (const SphereGeom& s : spheres_)
-            if (sphereHit(s, rr.org_x, rr.org_y, rr.org_z, rr.dir_x, rr.dir_y, rr.dir_z, rr.tnear, rr.tfar) >= 0)
+        for (size_t i = 0; i < spheres_.size(); ++i)
+            if (sphereHitMasked(spheres_[i], rr, unsigned(embreeGeoms_ + i), RTC_INVALID_GEOMETRY_ID) >= 0)
                 return true;
     rtcOccluded1(scene_, &ctx, &rr);
     return rr.tfar < 0.f;

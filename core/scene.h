@@ -9,6 +9,8 @@
 #include <memory>
 #include <vector>
 #include "core/camera.h"
+#include "core/cylinder.h"
+#include "core/instancing.h"
 #include "core/huge_pages.h"
 #include "core/lights.h"
 #include "core/sampling.h"
@@ -16,9 +18,11 @@
 
 namespace lt {
 
+class NormalPerturbation;  // bsdf/normal_perturbation.h
 
 struct SphereGeom {
     double cx, cy, cz, r;
+    const SphereDesc* mask = nullptr;  // a masked sphere's description (opacity, toLocal), else null
 };
 
 // The part of a surface hit a path vertex keeps (PathVertex derives from it, so that
@@ -118,7 +122,24 @@ public:
 private:
     template <class Hit>
     bool intersectImpl(const Ray& ray, Hit& hit) const;
-    unsigned attachSphere(RTCScene scene, size_t i);  // sphere i as Embree user geometry; its id
+    void attachSphere(RTCScene scene, size_t i, unsigned id);  // sphere i as Embree user geometry
+    struct GeomInfo;
+    // The shading frame of a hit on a shape with GeomInfo::tangentFrame: tangent dp/du, perturbed by
+    // the material's GeomInfo::perturb where it has one. n the unperturbed shading normal, (b1, b2)
+    // the barycentrics on a triangle, toWorld the linear part of an instance's transform (or null).
+    Frame perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b2, const Ray& ray, const glm::mat3* toWorld,
+                         const Vec3& p,
+                         const Vec3& ng, const Vec3& n) const;
+    // Attaches g (and releases it) to the main scene or to shapegroup `group`'s, with the next free
+    // geometry id (ids are unique across the scenes: geoms_ serves both); returns the id.
+    unsigned attach(RTCGeometry g, int group);
+    // Cylinders as Embree user geometry; shapegroups committed and their instances attached
+    // (growing lo/hi by the instances' bounds). core/instancing.cpp
+    void attachCylinders(Vec3& lo, Vec3& hi);
+    void attachInstances(Vec3& lo, Vec3& hi);
+    // Curves as Embree round curves (core/curves.cpp), growing lo/hi as attachCylinders.
+    void attachCurves(Vec3& lo, Vec3& hi);
+    void cylinderLights(const std::vector<int>& emitterToLight);
 
     SceneDesc desc_;
     RTCDevice device_ = nullptr;
@@ -145,7 +166,10 @@ private:
     struct MeshTriNormals { Vec3 n0, n1, n2; float curvature; };  // 40 bytes
     // What a hit needs of its shape, by Embree geomID, flat (no lookups through the description).
     struct GeomInfo {
-        int mesh = -1, sphere = -1;
+        int mesh = -1, sphere = -1, cylinder = -1;
+        int curve = -1;           // a linearcurve or bsplinecurve (SceneDesc::curves; core/curves.h)
+        int instance = -1;        // an instance of a shapegroup (index into instances_)
+        bool attributeKey = false;  // hits carry the mesh-attribute key in uv (MeshDesc::attributeKey)
         const MeshTri* tris = nullptr;
         const MeshTriNormals* normals = nullptr;  // null: face normals, or frames
         const Frame* frames = nullptr;            // shading frame per triangle (flat meshes)
@@ -155,6 +179,13 @@ private:
         const Light* light = nullptr;
         bool deltaBsdf = false;
         bool textured = false;  // the material's model varies with uv (Bxdf::textured)
+        // The material's normalmap or bumpmap: hits take its perturbed frame (bxdf is then its
+        // nested model). Null for every other material.
+        const NormalPerturbation* perturb = nullptr;
+        // Hits take the frame whose tangent is dp/du (perturbedFrame; perturbed where perturb is
+        // set): a normalmap or bumpmap, or an anisotropic material (Bxdf::anisotropic), whose lobe
+        // is oriented along dp/du as in Mitsuba. Elsewhere any frame about the normal will do.
+        bool tangentFrame = false;
         float roughness = 1.f;
         float curvature = 0.f;  // a sphere's 1/r
     };
@@ -162,6 +193,11 @@ private:
     HugeVector<MeshTriNormals> triNormals_;   // meshes with varying vertex normals, + 1 padding record
     HugeVector<Frame> triFrames_;             // flat meshes with vertex normals
     std::vector<SphereGeom> spheres_;  // user data of the Embree sphere geometries (double precision)
+    MeshMasks meshMasks_;              // the filters' records of masked meshes (core/opacity.h)
+    std::vector<CylinderGeom> cylinders_;  // user data of the cylinders (double precision)
+    std::vector<int> cylinderLight_;       // light index per cylinder, -1 if none
+    std::vector<RTCScene> groupScenes_;    // one Embree scene per shapegroup (instanced)
+    std::vector<InstanceXf> instances_;    // by GeomInfo::instance (core/instancing.h)
     std::vector<GeomInfo> geoms_;                  // by Embree geomID
     std::vector<int> meshLight_, sphereLight_;     // light index per mesh / sphere, -1 if none
     // Emitting meshes: their triangles (all, in mesh order) and the choice between them (per mesh).

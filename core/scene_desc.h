@@ -10,6 +10,8 @@
 #include <vector>
 #include "bsdf/bsdf.h"
 #include "core/math.h"
+#include "core/texture/texture.h"
+#include "core/opacity.h"
 
 namespace lt {
 
@@ -21,6 +23,42 @@ struct MeshDesc {
     std::vector<uint32_t> indices;  // 3 per triangle (quads are split by the loader)
     int bsdf = -1;               // index into SceneDesc::bsdfs
     int emitter = -1;            // index into SceneDesc::emitters (type Area), or -1
+    int group = -1;              // the shapegroup it belongs to (object space of its instances), -1: none
+    // The material reads a mesh attribute (core/mesh_attribute.h): hits carry the attribute key
+    // (primitive, barycentrics) in place of uv.
+    bool attributeKey = false;
+    Opacity opacity;             // a mask BSDF's opacity (core/opacity.h); opaque by default
+};
+
+// Mitsuba's cylinder (core/cylinder.h): the unit cylinder x^2 + y^2 = 1, 0 <= z <= 1, open, mapped
+// by toWorld (which includes p0, p1 and radius); outward normals unless flipNormals.
+struct CylinderDesc {
+    std::string name;
+    glm::dmat4 toWorld{1.0};
+    double radius = 1.0, length = 1.0;  // world space
+    bool flipNormals = false;
+    int bsdf = -1;
+    int emitter = -1;
+    int group = -1;
+};
+
+// Mitsuba's linearcurve and bsplinecurve (core/curves.h): Embree's round curves through the
+// control points (x, y, z, radius), positions mapped by the shape's to_world, radii not.
+struct CurveDesc {
+    std::string name;
+    std::string file;                  // the control-point file (messages)
+    bool bspline = false;              // cubic B-spline segments, else linear ones
+    std::vector<glm::vec4> points;     // xyz in world (or the shapegroup's) space, w the radius
+    std::vector<uint32_t> segments;    // the first control point of each segment
+    int bsdf = -1;
+    int group = -1;
+};
+
+// An <shape type="instance">: the shapes of shapegroup `group` mapped by toWorld.
+struct InstanceDesc {
+    int group = -1;
+    Mat4 toWorld{1.f};
+    std::string source;  // "file:line"
 };
 
 struct SphereDesc {
@@ -30,9 +68,14 @@ struct SphereDesc {
     bool flipNormals = false;  // normals point inwards
     int bsdf = -1;
     int emitter = -1;
+    int group = -1;            // as MeshDesc::group
+    // The rotation of to_world, inverted: world -> the sphere's local frame, in which Mitsuba's uv
+    // parameterisation is defined.
+    glm::mat3 toLocal{1.f};
+    Opacity opacity;           // as MeshDesc::opacity
 };
 
-enum class EmitterType { Area, Point, Spot, Directional, Constant, Envmap };
+enum class EmitterType { Area, Point, Spot, Directional, Constant, Envmap, Projector };
 
 class EnvironmentMap;  // core/envmap.h
 
@@ -49,17 +92,28 @@ struct EmitterDesc {
     Mat4 toWorld{1.f};
     float scale = 1.f;
     std::shared_ptr<const EnvironmentMap> envmap;
+    // Textured emitters (core/textured_lights.cpp): an area light's `radiance`, a spot's `texture`,
+    // a projector's `irradiance` (null: `value`, constant). Spot (with a texture) and projector
+    // also read toWorld (a rotation and translation), the projector scale and its horizontal fov.
+    TexturePtr texture;
+    float fovXDeg = 0.f;     // projector
     std::string source;      // "file:line" for messages
 };
 
 enum class FovAxis { X, Y, Smaller, Larger, Diagonal };
 enum class FilterType { Box, Tent, Gaussian };
+// Mitsuba 3's sensors: perspective (the pinhole), thinlens, orthographic (core/camera.h).
+enum class SensorType { Perspective, ThinLens, Orthographic };
 
 struct CameraDesc {
-    Mat4 toWorld{1.f};       // camera frame: +Z forward, +Y up, +X image left
+    SensorType type = SensorType::Perspective;
+    Mat4 toWorld{1.f};       // camera frame: +Z forward, +Y up, +X image left (orthographic: with its scale)
     float fovDeg = 45.f;
     FovAxis fovAxis = FovAxis::X;
     float nearClip = 0.01f;
+    float farClip = 1e4f;          // thinlens, orthographic (the pinhole ignores it)
+    float apertureRadius = 0.f;    // thinlens
+    float focusDistance = 1e4f;    // thinlens: the focal plane's distance (Mitsuba's default: far_clip)
     int width = 768, height = 576;  // the image rendered: the crop window's size
     // hdrfilm's crop window (Mitsuba's crop_offset_x/y, crop_width/height): the image is the
     // window of width x height pixels at (cropX, cropY) of the full film fullWidth x fullHeight,
@@ -131,6 +185,10 @@ struct SceneDesc {
     std::vector<BxdfPtr> bsdfs;
     std::vector<MeshDesc> meshes;
     std::vector<SphereDesc> spheres;
+    std::vector<CylinderDesc> cylinders;
+    std::vector<CurveDesc> curves;
+    std::vector<InstanceDesc> instances;
+    int groupCount = 0;                // shapegroups (the group fields above index them)
     std::vector<EmitterDesc> emitters;
     CameraDesc camera;
     IntegratorDesc integrator;

@@ -122,13 +122,33 @@ private:
     // t = 1: every light vertex connected to the camera and splatted.
     void lightTrace(const Scene& scene, Film& film, const PathVertex* y, int ny, const PathVertex& camera,
                     const Rng& rng, SplatBuffer& splat, WalkStats& ws) const {
+        if (scene.camera().pinhole()) lightTraceTo<true>(scene, film, y, ny, camera, rng, splat, ws);
+        else lightTraceTo<false>(scene, film, y, ny, camera, rng, splat, ws);
+    }
+    // A lens or an orthographic film (not pinhole): each connection's own camera vertex
+    // (Camera::connectionPoint; the lens point from a stream split from the light path's).
+    template <bool pinhole>
+    void lightTraceTo(const Scene& scene, Film& film, const PathVertex* y, int ny, const PathVertex& camera,
+                      const Rng& rng, SplatBuffer& splat, WalkStats& ws) const {
+        [[maybe_unused]] PathVertex lensVertex;
+        [[maybe_unused]] Rng lensRng;
+        if constexpr (!pinhole) {
+            lensVertex = camera;
+            lensRng = rng.split(0x9e3779b97f4a7c15ull);
+        }
         for (int s = 1; s <= ny && s <= maxDepth_; ++s) {
             if (s == 1 && (y[0].light->isDeltaPosition() || settings_.hideEmitters)) continue;  // as PT: point lights are not seen
+            const PathVertex* z = &camera;
+            if constexpr (!pinhole) {
+                const Camera& cam = scene.camera();
+                lensVertex.p = cam.connectionPoint(y[s - 1].p, cam.thinLens() ? lensRng.uniform2() : Vec2(0.5f));
+                z = &lensVertex;
+            }
             Connection c;
-            if (!connect(scene, reg_, y, s, &camera, 1, c, ws, kMaxPathVertices, &rng)) continue;
+            if (!connect(scene, reg_, y, s, z, 1, c, ws, kMaxPathVertices, &rng)) continue;
             const Color weighted = c.contribution * connectionWeight(c.pdfs, s, 1);
             film.splat(splat, c.raster, weighted, uint16_t(s), c.pdfs.regularised,
-                       strategies_ && singularPath(y, s, &camera, 1));
+                       strategies_ && singularPath(y, s, z, 1));
             if constexpr (Reg::kPerTechnique) ws.countContribution(weighted, c.pdfs.regularised);
         }
     }

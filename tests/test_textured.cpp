@@ -214,9 +214,9 @@ TEST_CASE("loader: textures inline and referenced and their errors", "[texture][
 </scene>)"));
     CHECK(e.find("wrap_mode") != std::string::npos);
     CHECK(e.find("wrap.xml:4") != std::string::npos);
-    // A texture where this renderer does not take one yet: an error naming the parameter.
+    // A texture where Mitsuba 3 takes a value only (roughplastic's alpha): an error naming the parameter.
     e = loadError(writeTemp("alpha.xml", R"(<scene version="3.0.0">
-    <shape type="rectangle"><bsdf type="roughconductor">
+    <shape type="rectangle"><bsdf type="roughplastic">
         <texture type="checkerboard" name="alpha"/>
     </bsdf></shape>
 </scene>)"));
@@ -232,7 +232,7 @@ TEST_CASE("loader: textures inline and referenced and their errors", "[texture][
 </scene>)")).find("both as a value and as a texture") != std::string::npos);
     CHECK(loadError(writeTemp("type.xml", R"(<scene version="3.0.0">
     <shape type="rectangle"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/></bsdf></shape>
-</scene>)")).find("unsupported texture type 'mesh_attribute'") != std::string::npos);
+</scene>)")).find("a mesh_attribute texture reads a PLY mesh's attributes") != std::string::npos);
 }
 
 TEST_CASE("textured plastic: the model at a point is the plastic with the texture's reflectance there", "[texture][bsdf]") {

@@ -48,13 +48,14 @@ public:
         // Mitsuba pads images under 2x2 texels to 2x2 by repeating the last row / column; every
         // look-up gives the same value either way, so the image is kept as it is.
         double sum[3] = {0.0, 0.0, 0.0};
-        max_ = img_.pixels[0];
+        max_ = min_ = img_.pixels[0];
         for (size_t i = 0; i < img_.pixels.size(); ++i) {
             const Color& c = img_.pixels[i];
             if (!isFinite(c))
                 throw ImageError(name_ + ": texel (" + std::to_string(i % size_t(img_.width)) + ", " +
                                  std::to_string(i / size_t(img_.width)) + ") is NaN or infinite");
             max_ = glm::max(max_, c);
+            min_ = glm::min(min_, c);
             for (int k = 0; k < 3; ++k) sum[k] += c[k];
         }
         const double n = double(img_.pixels.size());
@@ -82,8 +83,32 @@ public:
         return (1.f - wy) * top + wy * bottom;
     }
 
+    // Mitsuba's eval_1_grad: the analytic derivative of the bilinear interpolation of the texels'
+    // luminance, d/dpx = (1 - wy)(f10 - f00) + wy (f11 - f01) (and alike for py), times the
+    // resolution (p = uv' res - 0.5), then through to_uv's linear part (transposed). Nearest: 0.
+    Vec2 evalGrad1(const Vec2& uv) const override {
+        if (filter_ == TextureFilter::Nearest) return Vec2(0.f);
+        const Vec3 t = toUv_ * Vec3(uv.x, uv.y, 1.f);
+        const float px = sanitise(t.x) * res_.x - 0.5f, py = sanitise(t.y) * res_.y - 0.5f;
+        const float fx = std::floor(px), fy = std::floor(py);
+        const float wx = px - fx, wy = py - fy;
+        const int64_t ix = int64_t(fx), iy = int64_t(fy);
+        const int64_t x0 = wrapIndex(ix, img_.width, wrap_), x1 = wrapIndex(ix + 1, img_.width, wrap_);
+        const int64_t y0 = wrapIndex(iy, img_.height, wrap_), y1 = wrapIndex(iy + 1, img_.height, wrap_);
+        // (Mitsuba's luminance weights)
+        auto lum = [](const Color& c) { return 0.212671f * c.x + 0.715160f * c.y + 0.072169f * c.z; };
+        const float f00 = lum(texel(x0, y0)), f10 = lum(texel(x1, y0)), f01 = lum(texel(x0, y1)),
+                    f11 = lum(texel(x1, y1));
+        const float dx = ((1.f - wy) * (f10 - f00) + wy * (f11 - f01)) * res_.x;
+        const float dy = ((1.f - wx) * (f01 - f00) + wx * (f11 - f10)) * res_.y;
+        // d/du = a00 dx + a10 dy, d/dv = a01 dx + a11 dy (a_rc the 2x2 linear part, glm column-major).
+        return Vec2(toUv_[0][0] * dx + toUv_[0][1] * dy, toUv_[1][0] * dx + toUv_[1][1] * dy);
+    }
+
     Color maxValue() const override { return max_; }
+    Color minValue() const override { return min_; }
     Color meanValue() const override { return mean_; }
+    glm::ivec2 resolution() const override { return glm::ivec2(img_.width, img_.height); }
     std::string name() const override { return name_; }
 
 private:
@@ -97,7 +122,7 @@ private:
     glm::mat3 toUv_;
     std::string name_;
     Vec2 res_;
-    Color max_{0.f}, mean_{0.f};
+    Color max_{0.f}, mean_{0.f}, min_{0.f};
 };
 
 }  // namespace

@@ -21,7 +21,17 @@ public:
         return hu == hv ? c0_ : c1_;
     }
 
+    // Mitsuba's eval_1 (a scalar parameter such as a roughconductor's alpha) has color0 where the
+    // two masks differ, the colours of eval swapped; its render tests' references follow it
+    // (test_textured_roughconductor passes with it and fails without).
+    float evalScalar(const Vec2& uv) const override {
+        const Vec3 t = toUv_ * Vec3(uv.x, uv.y, 1.f);
+        const bool hu = t.x - std::floor(t.x) > 0.5f;
+        const bool hv = t.y - std::floor(t.y) > 0.5f;
+        return scalarOf(hu == hv ? c1_ : c0_);
+    }
     Color maxValue() const override { return glm::max(c0_, c1_); }
+    Color minValue() const override { return glm::min(c0_, c1_); }
     // Each colour covers half of every period.
     Color meanValue() const override { return 0.5f * (c0_ + c1_); }
     std::string name() const override { return "checkerboard"; }

@@ -32,6 +32,9 @@ TexturePtr makeCheckerboard(const Color& color0, const Color& color1, const glm:
 TexturePtr makeBitmap(Image linearRgb, TextureFilter filter, TextureWrap wrap, const glm::mat3& toUv,
                       std::string name);
 
+// One value everywhere, as given (Mitsuba's rawconstant). Throws std::invalid_argument if not finite.
+TexturePtr makeConstantTexture(const Color& value);
+
 // Reads a texture image by extension (case-insensitive):
 //  .exr, .pfm, .hdr: lt::readImage, linear float data as stored;
 //  .png, .jpg, .jpeg, .bmp, .tga: stb_image, 8 bits per channel, or 16 for a 16-bit PNG. These are

@@ -38,8 +38,7 @@ void Jg19::setLimits() {
 
 void Jg19::beginIteration(uint64_t n, const Scene& scene, const MisConfig& cfg) {
     setIteration(n);
-    const Camera& cam = scene.camera();
-    cameraBound_ = cam.directionPdf(cam.forward()).value;  // the importance's maximum, at the image centre
+    cameraBound_ = scene.camera().importanceBound();  // the importance's maximum (perspective: at the image centre)
     set_ = cfg.set;
     merging_ = cfg.merging;
     mergeDensity_ = double(cfg.mergeArea) * double(cfg.lightPaths);
@@ -53,6 +52,7 @@ float Jg19::lightBound(const Light& light) {
         case LightType::Point:
         case LightType::Constant: return kUniformSpherePdf;
         case LightType::Spot: return 1.f / coneSolidAngle(light.cutoff);
+        case LightType::Projector: return light.projectorDirBound();
         case LightType::Directional: return kInvPi;  // (a delta direction that NEE samples exactly: as an area light)
         case LightType::Envmap: return light.envmap->directionalBound();  // largest radiance / its integral
     }

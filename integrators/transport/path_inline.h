@@ -195,8 +195,9 @@ inline Color lightEndpointValue(const PathVertex& a, const Vec3& w) {
     const Light& l = *a.light;
     switch (l.type) {
         case LightType::Area:
-        case LightType::Envmap: return l.Le(a.ng, w);
-        case LightType::Spot: return l.value * l.spotFalloff(w);
+        case LightType::Envmap: return l.Le(a.ng, w, a.uv);
+        case LightType::Spot: return l.texture ? l.texturedIntensity(w) : l.value * l.spotFalloff(w);
+        case LightType::Projector: return l.texturedIntensity(w);
         default: return l.value;
     }
 }
@@ -251,6 +252,7 @@ inline bool lightEndpoint(const Scene& scene, const Reg& reg, size_t li, const V
     LightSampleLi ls = l.sampleLi(scene, refP, u);
     if (!(ls.pdfPos.value > 0.f) || !(sel > 0.f) || isBlack(ls.value)) return false;
     out.setPoint(ls.p, ls.n, &l, 1.f);  // ls.n: zero but for area lights
+    out.uv = ls.uv;                     // (a textured area light's Le reads it)
     out.init(reg, VertexKind::Light, nullptr, Vec3(0.f), 0.f, Color(1.f / (sel * ls.pdfPos.value)),
              AreaPdf(sel * ls.pdfPos.value), AreaPdf(0.f), l.isInfinite());
     return true;
@@ -271,11 +273,16 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     if (!nee && !toCamera && (b.kind != VertexKind::Surface || b.infinite || !reg.connectible(b))) return false;
     if (aSurface && !reg.connectible(a)) return false;
     if (toCamera && a.infinite) return false;
+    // The camera's kind, read once: the pinhole takes its own forms (core/camera.h), a lens or an
+    // orthographic film the general ones at camera vertex b.
+    const SensorType camType = toCamera ? scene.camera().type() : SensorType::Perspective;
+    const bool lensCamera = camType != SensorType::Perspective;
     // Light tracing: where a lands on the image, known before the policy chooses the path's
     // regularised vertices (JG19's choice is a loop over the path; with it, BPT on caustic-mirror
     // made it for 37,000 light-tracing connections that landed off the image, of 40,000).
     if (toCamera) {
-        const std::optional<Vec2> raster = scene.camera().rasterPosition(a.p);
+        const std::optional<Vec2> raster =
+            lensCamera ? scene.camera().rasterPosition(b.p, a.p) : scene.camera().rasterPosition(a.p);
         if (!raster) return false;
         c.raster = *raster;
     }
@@ -289,20 +296,32 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     const float abDist2 = glm::dot(d, d);  // the segment's squared length, for the densities
     if (!(abDist2 > 0.f)) return false;
     Vec3 wBA = d * (1.f / std::sqrt(abDist2));  // one division, not three
-    const float dist2 = a.infinite ? 1.f : abDist2;  // in the geometry term
+    // (an orthographic camera's end is a's own projection, along a delta direction: as a light at
+    // infinity, no 1 / d^2; see the importance below)
+    const float dist2 = a.infinite || camType == SensorType::Orthographic ? 1.f : abDist2;  // in the geometry term
     // The shadow ray first: it needs only the two points, and its square root and division are
     // then under way while the BSDF is evaluated, not on the chain to the ray cast.
-    // (for the camera b.ng is zero: the shadow ray starts exactly at the pinhole)
+    // (for the camera b.ng is zero: the shadow ray starts exactly at the camera vertex)
     const Ray shadow = a.infinite ? scene.shadowRayInfinite(b.p, b.ng, wBA) : scene.shadowRay(b.p, b.ng, a.p, a.ng);
 
     BsdfEval eb;
     float cosB;
     if (toCamera) {
         // Light tracing: the camera's importance (a's raster position is known from above).
+        // b is the pinhole, a lens point or a's projection onto the orthographic film (the caller's).
         const Camera& cam = scene.camera();
-        eb.f = Color(cam.importance(wBA));
-        eb.pdfFwd = cam.directionPdf(wBA);
-        cosB = glm::dot(cam.forward(), wBA);
+        if (camType == SensorType::Orthographic) {
+            // We = 1 / A_film per unit projected area at a (|cos_a| from the geometry term); the
+            // camera walk's density of a, |cos_a| / A_film, as the solid-angle density that
+            // convertDensity below turns into it.
+            eb.f = Color(cam.filmDensity());
+            eb.pdfFwd = SolidAnglePdf(cam.filmDensity() * abDist2);
+            cosB = 1.f;
+        } else {
+            eb.f = Color(lensCamera ? cam.importance(b.p, wBA) : cam.importance(wBA));
+            eb.pdfFwd = lensCamera ? cam.directionPdf(b.p, wBA) : cam.directionPdf(wBA);
+            cosB = glm::dot(cam.forward(), wBA);
+        }
     } else {
         eb = request ? detail::evalAtConnection<true>(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera,
                                                       tech.pdfCamera)

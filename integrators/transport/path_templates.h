@@ -42,7 +42,7 @@ static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfC
             }
             break;
         case VertexKind::Camera: {
-            SolidAnglePdf p = scene.camera().directionPdf(d);
+            SolidAnglePdf p = scene.camera().directionPdf(prev.p, d);  // (orthographic: 0, see cameraWalk)
             if (p.value > 0.f) pdfFwd = p;
             break;
         }
@@ -178,13 +178,15 @@ int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAng
     return n;
 }
 
-// In place (no temporary vertex to build and copy: once per camera sample). beta = We cos /
-// (pdfPos pdfDir) = 1 for a pinhole sampled by raster position; fromCamera = 1: the pinhole
-// position is a delta.
+// In place (no temporary vertex to build and copy: once per camera sample), at camera vertex
+// `position` (core/camera.h: the pinhole, a lens point, a film point). beta = We cos /
+// (pdfPos pdfDir) = 1 for every camera sampled by raster position; fromCamera = the camera's
+// position density (1 for the pinhole: a delta), which no MIS ratio reads (no technique hits the
+// camera).
 template <class Reg>
-void setCameraEndpoint(const Scene& scene, const Reg& reg, PathVertex& c) {
-    c.setPoint(scene.camera().position(), Vec3(0.f), nullptr, 0.f);
-    c.init(reg, VertexKind::Camera, nullptr, Vec3(0.f), 0.f, Color(1.f), AreaPdf(0.f), AreaPdf(1.f));
+void setCameraEndpoint(const Reg& reg, PathVertex& c, const Vec3& position, AreaPdf density) {
+    c.setPoint(position, Vec3(0.f), nullptr, 0.f);
+    c.init(reg, VertexKind::Camera, nullptr, Vec3(0.f), 0.f, Color(1.f), AreaPdf(0.f), density);
 }
 
 }  // namespace detail
@@ -192,19 +194,36 @@ void setCameraEndpoint(const Scene& scene, const Reg& reg, PathVertex& c) {
 template <class Reg>
 PathVertex cameraEndpoint(const Scene& scene, const Reg& reg) {
     PathVertex c;
-    detail::setCameraEndpoint(scene, reg, c);
+    detail::setCameraEndpoint(reg, c, scene.camera().position(), AreaPdf(scene.camera().positionDensity()));
     return c;
 }
 
 template <class Reg>
 int cameraWalk(const Scene& scene, const Reg& reg, const Vec2& raster, Rng& rng, int maxVertices, int rrDepth,
                PathVertex* path, WalkStats& stats, WalkPdfs pdfs, guiding::WalkGuide* guide) {
+    const Camera& cam = scene.camera();
     SolidAnglePdf pdfDir;
-    const Ray ray = scene.camera().generateRay(raster, pdfDir);
-    detail::setCameraEndpoint(scene, reg, path[0]);
+    if (cam.pinhole()) {
+        const Ray ray = cam.generateRay(raster, pdfDir);
+        detail::setCameraEndpoint(reg, path[0], cam.position(), AreaPdf(1.f));
+        if (maxVertices <= 1) return 1;
+        return detail::randomWalk(scene, reg, ray, Color(1.f), pdfDir, rng, TransportMode::Radiance, maxVertices,
+                                  rrDepth, path, stats, pdfs, guide);
+    }
+    // A lens or a film: the camera vertex is the ray's (the thin lens draws its lens point after
+    // the raster position; the orthographic film draws nothing).
+    Vec3 origin;
+    const Ray ray = cam.generateRay(raster, cam.thinLens() ? rng.uniform2() : Vec2(0.5f), pdfDir, origin);
+    detail::setCameraEndpoint(reg, path[0], origin, AreaPdf(cam.positionDensity()));
     if (maxVertices <= 1) return 1;
-    return detail::randomWalk(scene, reg, ray, Color(1.f), pdfDir, rng, TransportMode::Radiance, maxVertices, rrDepth,
-                              path, stats, pdfs, guide);
+    const int n = detail::randomWalk(scene, reg, ray, Color(1.f), pdfDir, rng, TransportMode::Radiance, maxVertices,
+                                     rrDepth, path, stats, pdfs, guide);
+    // Orthographic: the direction is a delta and the film point uniform, so the first hit's area
+    // density is the film's projected onto it, |cos| / A_film (the mirror of a directional
+    // light's first hit, lightWalk).
+    if (cam.orthographic() && n > 1 && !path[1].infinite)
+        path[1].fromCamera = AreaPdf(cam.filmDensity() * std::abs(glm::dot(path[1].ng, ray.d)));
+    return n;
 }
 
 template <class Reg>
@@ -223,6 +242,7 @@ int lightWalk(const Scene& scene, const Reg& reg, Rng& rng, int maxVertices, int
     // Its beta leaves out the light's value, which is applied at connections.
     PathVertex& y0 = path[0];
     y0.setPoint(le.p, l.type == LightType::Area ? le.n : Vec3(0.f), &l, 1.f);
+    y0.uv = le.uv;  // (a textured area light's Le reads it)
     y0.init(reg, VertexKind::Light, nullptr, Vec3(0.f), 0.f, Color(1.f / (sel * le.pdfPos.value)),
             AreaPdf(sel * (l.isInfinite() ? le.pdfDir.value : le.pdfPos.value)), AreaPdf(0.f), l.isInfinite());
     if (maxVertices == 1) return 1;
@@ -245,7 +265,7 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
                  bool regularisedSample) {
     const PathVertex& v = z[t - 1];
     if (!v.light || t < 2) return Color(0.f);
-    Color Le = v.light->Le(v.ng, v.wo);
+    Color Le = v.light->Le(v.ng, v.wo, v.uv);
     if (isBlack(Le)) return Color(0.f);
     Technique tech{nullptr, 0, z, t};
     tech.regularisedSample = regularisedSample;
