@@ -575,8 +575,7 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
     _mm_storeu_ps(&sp.ng.x, ng);
     if (gi.tangentFrame) [[unlikely]] {
         if (dot3(ns, ng) < 0.f) ns = _mm_xor_ps(ns, _mm_set1_ps(-0.f));
-        const glm::mat3 toWorld = ix ? glm::mat3(ix->toWorld) : glm::mat3(1.f);
-        sp.shading = perturbedFrame(gi, rh.hit.primID, rh.hit.u, rh.hit.v, ray, ix ? &toWorld : nullptr, sp.p, sp.ng,
+        sp.shading = perturbedFrame(gi, rh.hit.primID, rh.hit.u, rh.hit.v, ray, ix, sp.p, sp.ng,
                                     frame ? frame->n : toVec3(ns));
         return true;
     }
@@ -595,7 +594,7 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
 // analytic parameterisation u = phi / 2 pi, v = theta / pi), the unperturbed frame from them
 // (tangentFrame), and the material's perturbation of it (bsdf/normal_perturbation.h).
 Frame Scene::perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b2, const Ray& ray,
-                            const glm::mat3* toWorld, const Vec3& p, const Vec3& ng, const Vec3& n) const {
+                            const InstanceXf* ix, const Vec3& p, const Vec3& ng, const Vec3& n) const {
     TangentSpace ts;
     ts.ng = ng;
     ts.wo = -ray.d;
@@ -621,9 +620,8 @@ Frame Scene::perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b
         // (in the sphere's local frame, SphereDesc::toLocal, about its z as its uv; an instance's
         // hit point taken back to the group's space)
         const SphereDesc& s = desc_.spheres[gi.sphere];
-        const Vec3 po = toWorld ? Vec3(glm::inverse(*toWorld) * p) : p;  // (instance translations cancel in l)
-        const Vec3 co = toWorld ? Vec3(glm::inverse(*toWorld) * s.center) : s.center;
-        const Vec3 l = glm::normalize(s.toLocal * (toWorld ? po - co : p - s.center));
+        const Vec3 po = ix ? Vec3(ix->toObject * glm::vec4(p, 1.f)) : p;
+        const Vec3 l = glm::normalize(s.toLocal * (po - s.center));
         float phi = std::atan2(l.y, l.x);
         if (phi < 0.f) phi += 2.f * kPi;
         ts.uv = Vec2(phi * (0.5f * kInvPi), std::acos(std::clamp(l.z, -1.f, 1.f)) * kInvPi);
@@ -634,9 +632,9 @@ Frame Scene::perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b
                                             : Vec3(kPi * s.radius, 0.f, 0.f));
         ok = isFinite(ts.dpdu) && isFinite(ts.dpdv);
     }
-    if (ok && toWorld) {  // (the group's space to the world: tangents map by the linear part)
-        ts.dpdu = *toWorld * ts.dpdu;
-        ts.dpdv = *toWorld * ts.dpdv;
+    if (ok && ix) {  // (the group's space to the world: tangents map by the linear part)
+        ts.dpdu = glm::mat3(ix->toWorld) * ts.dpdu;
+        ts.dpdv = glm::mat3(ix->toWorld) * ts.dpdv;
     }
     if (!ok) {
         const Frame f(ng);

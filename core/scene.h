@@ -126,8 +126,8 @@ private:
     struct GeomInfo;
     // The shading frame of a hit on a shape with GeomInfo::tangentFrame: tangent dp/du, perturbed by
     // the material's GeomInfo::perturb where it has one. n the unperturbed shading normal, (b1, b2)
-    // the barycentrics on a triangle, toWorld the linear part of an instance's transform (or null).
-    Frame perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b2, const Ray& ray, const glm::mat3* toWorld,
+    // the barycentrics on a triangle, ix the hit's instance (null outside one).
+    Frame perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b2, const Ray& ray, const InstanceXf* ix,
                          const Vec3& p,
                          const Vec3& ng, const Vec3& n) const;
     // Attaches g (and releases it) to the main scene or to shapegroup `group`'s, with the next free

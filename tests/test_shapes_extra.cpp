@@ -194,12 +194,14 @@ TEST_CASE("a cylinder area light: PT and BPT and LT and VCM agree", "[shapes][cy
 namespace {
 
 // Shapes of every analytic and mesh kind, in a group instanced twice, and the same written out
-// flat (each shape's transform followed by its instance's: the XML composes left to right).
+// flat (each shape's transform followed by its instance's: the XML composes left to right). The
+// rectangle and the rotated sphere are anisotropic: their hits take the dp/du frame, which an
+// instance must map to the world as the flat shape's.
 const char* kGroupShapes[] = {
     R"(<shape type="rectangle"><transform name="to_world"><scale value="0.8"/><rotate y="1" angle="-70"/>%T</transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.9 0.5 0.9"/></bsdf></shape>)",
-    R"(<shape type="sphere"><transform name="to_world"><scale value="0.4"/><translate x="-0.8"/>%T</transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.9 0.5 0.3"/></bsdf></shape>)",
+        <bsdf type="roughconductor"><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.3"/></bsdf></shape>)",
+    R"(<shape type="sphere"><transform name="to_world"><scale value="0.4"/><rotate x="1" angle="30"/><translate x="-0.8"/>%T</transform>
+        <bsdf type="roughconductor"><float name="alpha_u" value="0.3"/><float name="alpha_v" value="0.05"/></bsdf></shape>)",
     R"(<shape type="cylinder"><float name="radius" value="0.3"/><transform name="to_world"><translate y="0.5"/>%T</transform>
         <bsdf type="diffuse"><rgb name="reflectance" value="0.2 0.5 0.8"/></bsdf></shape>)",
     R"(<shape type="cube"><transform name="to_world"><scale value="0.2"/><translate x="0.7" z="0.5"/>%T</transform>
@@ -263,6 +265,7 @@ TEST_CASE("instancing: a shapegroup's instances are the same geometry as the sha
             CHECK(glm::length(ha.p - hb.p) < 1e-4f);
             CHECK(glm::length(ha.ng - hb.ng) < 1e-4f);
             CHECK(glm::length(ha.shading.n - hb.shading.n) < 1e-4f);
+            CHECK(glm::length(ha.shading.s - hb.shading.s) < 1e-3f);
             CHECK(glm::length(ha.uv - hb.uv) < 1e-4f);
             CHECK(ha.curvature == Approx(hb.curvature).epsilon(1e-3));
             REQUIRE(ha.bxdf != nullptr);
