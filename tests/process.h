@@ -56,6 +56,12 @@ struct TempDir {
     TempDir(const TempDir&) = delete;
     TempDir& operator=(const TempDir&) = delete;
     std::string file(const std::string& name) const { return (dir / name).string(); }
+    // Writes `text` to the file `name` here; returns its path.
+    std::string write(const std::string& name, const std::string& text) const {
+        const std::string p = file(name);
+        std::ofstream(p) << text;
+        return p;
+    }
 };
 
 // A directory for one test's files, kept after the test for inspection (recreated empty).

@@ -1,6 +1,7 @@
 // Small scenes built in code for integrator tests (independent of the XML loader).
 #pragma once
 #include <glm/gtc/matrix_transform.hpp>
+#include "core/loader.h"
 #include "core/scene_desc.h"
 
 namespace lt::test {
@@ -114,6 +115,16 @@ inline SceneDesc furnace(int res, float albedo) {
     d.spheres.push_back(s);
     d.camera = lookAt(Vec3(0.1f, 0.2f, 0.f), Vec3(0.1f, 0.2f, 1.f), Vec3(0, 1, 0), 60.f, res, res);
     return d;
+}
+
+// The loader's error for the scene file at path ("" if it loads).
+inline std::string loadError(const std::string& path) {
+    try {
+        loadScene(path, {});
+    } catch (const SceneError& e) {
+        return e.what();
+    }
+    return "";
 }
 
 }  // namespace lt::test

@@ -22,19 +22,9 @@ namespace {
 
 std::string writeTemp(const std::string& name, const std::string& text) {
     static const TempDir dir("lt_test_curves");  // per process, removed at exit
-    const std::string p = dir.file(name);
-    std::ofstream(p) << text;
-    return p;
+    return dir.write(name, text);
 }
 
-std::string loadError(const std::string& path) {
-    try {
-        loadScene(path, {});
-    } catch (const SceneError& e) {
-        return e.what();
-    }
-    return "";
-}
 
 std::string curveScene(const std::string& type, const std::string& file, const std::string& extra = "") {
     return R"(<scene version="3.0.0"><shape type=")" + type + R"("><string name="filename" value=")" + file + "\"/>" +

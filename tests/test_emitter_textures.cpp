@@ -100,19 +100,9 @@ void agreeWithPt(const SceneDesc& d, const std::vector<std::string>& others, int
 
 std::string writeTemp(const std::string& name, const std::string& text) {
     static const lt::test::TempDir dir("lt_test_emitter_textures");  // per process, removed at exit
-    const fs::path p = dir.dir / name;
-    std::ofstream(p) << text;
-    return p.string();
+    return dir.write(name, text);
 }
 
-std::string loadError(const std::string& path) {
-    try {
-        loadScene(path, {});
-    } catch (const SceneError& e) {
-        return e.what();
-    }
-    return "";
-}
 
 }  // namespace
 

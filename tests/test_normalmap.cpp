@@ -287,9 +287,7 @@ namespace {
 
 std::string writeTemp(const std::string& name, const std::string& text) {
     static const lt::test::TempDir dir("lt_test_normalmap");  // per process, removed at exit
-    const fs::path p = dir.dir / name;
-    std::ofstream(p) << text;
-    return p.string();
+    return dir.write(name, text);
 }
 
 std::string loadError(const std::string& name, const std::string& bsdf) {

@@ -22,19 +22,9 @@ namespace {
 
 std::string writeTemp(const std::string& name, const std::string& text) {
     static const TempDir dir("lt_test_shapes_extra");  // per process, removed at exit
-    const std::string p = dir.file(name);
-    std::ofstream(p) << text;
-    return p;
+    return dir.write(name, text);
 }
 
-std::string loadError(const std::string& path) {
-    try {
-        loadScene(path, {});
-    } catch (const SceneError& e) {
-        return e.what();
-    }
-    return "";
-}
 
 // A cylinder of radius 0.5 from p0 = (1, 2, 3) to p1 = (1, 2, 5) (axis +z), under a constant sky.
 const char* kCylinderXml = R"(<scene version="3.0.0">

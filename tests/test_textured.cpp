@@ -146,19 +146,9 @@ namespace {
 
 std::string writeTemp(const std::string& name, const std::string& text) {
     static const lt::test::TempDir dir("lt_test_textured");  // per process, removed at exit
-    const fs::path p = dir.dir / name;
-    std::ofstream(p) << text;
-    return p.string();
+    return dir.write(name, text);
 }
 
-std::string loadError(const std::string& path) {
-    try {
-        loadScene(path, {});
-    } catch (const SceneError& e) {
-        return e.what();
-    }
-    return "";
-}
 
 }  // namespace
 
