@@ -39,6 +39,7 @@ public:
         if (!(s.radiusAlpha > 0.f && s.radiusAlpha <= 1.f))
             throw std::invalid_argument(fmt::format("radius alpha must be in (0, 1], got {}", s.radiusAlpha));
         maxDepth_ = maxDepthOf(s);
+        rrDepth_ = rrDepthOf(s);
     }
     std::string name() const override { return settings_.integrator; }
     double regularisationTau() const override { return regularisationTauOf(reg_); }
@@ -77,7 +78,7 @@ public:
             for (size_t j = c * kChunk; j < std::min(nPaths, (c + 1) * kChunk); ++j) {
                 Rng rng = Rng::forSample(settings_.seed, j, pass, /*domain=*/1);
                 PathVertex* y = chunk.next();
-                int ny = lightWalk(scene, reg_, rng, maxLight, rrDepthOf(settings_), y, ws);
+                int ny = lightWalk(scene, reg_, rng, maxLight, rrDepth_, y, ws);
                 if (useLightTracing_) lightTrace(scene, film, y, ny, camera, rng, splat, ws);
                 chunk.commit(ny);
                 if (useMerging_ && ppm_) grid_.add(c, uint32_t(j), store_.path(j), store_.pdfs(j), ny, cfg_, reg::kNone);
@@ -145,7 +146,7 @@ private:
                 z = &lensVertex;
             }
             Connection c;
-            if (!connect(scene, reg_, y, s, z, 1, c, ws, kMaxPathVertices, &rng)) continue;
+            if (!connect(scene, reg_, y, s, z, 1, rrDepth_, c, ws, kMaxPathVertices, &rng)) continue;
             const Color weighted = c.contribution * connectionWeight(c.pdfs, s, 1);
             film.splat(splat, c.raster, weighted, uint16_t(s), c.pdfs.regularised,
                        strategies_ && singularPath(y, s, z, 1));
@@ -155,7 +156,7 @@ private:
 
     Color radiance(const Scene& scene, const Vec2& raster, uint32_t pixel, Rng& rng, PathVertex* z,
                    WalkStats& stats) const {
-        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth_ + 1, rrDepthOf(settings_), z, stats);
+        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth_ + 1, rrDepth_, z, stats);
         const PathVertex* y = store_.path(pixel);
         const int ny = store_.length(pixel);
         const float mergeNorm = 1.f / (cfg_.mergeArea * cfg_.lightPaths);
@@ -174,9 +175,11 @@ private:
             return useMerging_ && !v.infinite && (ppm_ ? v.connectible() : reg_.mergeable(v));
         };
         // And the camera side of the merge weights, once per camera vertex (cameraPrefixSum), so
-        // that a merge's weight costs O(1) on both sides (tested against the gathered form).
+        // that a merge's weight costs O(1) on both sides (tested against the gathered form). The
+        // fast forms hold for rrDepth 1 (path.h, merge); with a larger one merges gather.
+        const bool fastMerges = rrDepth_ == 1;
         std::array<double, kMaxPathVertices> cameraSums;
-        if (useMerging_) {
+        if (useMerging_ && fastMerges) {
             for (int t = 2; t <= nz; ++t)
                 if (canMergeAt(z[t - 1])) grid_.locate(z[t - 1].p, cells[t - 1]);
             double prev = 0.0;
@@ -189,7 +192,7 @@ private:
             if (canMerge) grid_.fetch(cells[t - 1]);
             // s = 0: emitter hit.
             if (v.light && !(settings_.hideEmitters && t == 2) && (useConnections_ || (ppm_ && allDelta))) {
-                Color c = emitterHit(scene, reg_, z, t, pdfs);
+                Color c = emitterHit(scene, reg_, z, t, rrDepth_, pdfs);
                 if (!isBlack(c))
                     record(L, c * (ppm_ ? 1.f : connectionWeight(pdfs, 0, t)), false, 0, t, pixel, false, false, stats);
             }
@@ -204,12 +207,12 @@ private:
                 std::optional<Rng> side;  // (detail::lightSampleStream)
                 if (t <= maxDepth_ &&
                     sampleLightVertex(scene, reg_, v.p, detail::lightSampleStream(v, t, rng, side), lv) &&
-                    connect(scene, reg_, &lv, 1, z, t, c, stats, kMaxPathVertices, &rng))
+                    connect(scene, reg_, &lv, 1, z, t, rrDepth_, c, stats, kMaxPathVertices, &rng))
                     record(L, c.contribution * connectionWeight(c.pdfs, 1, t), false, 1, t, pixel, c.pdfs.regularised,
                            strategies_ && singularPath(&lv, 1, z, t), stats);
                 // s >= 2: the pixel's own light subpath.
                 for (int s = 2; s <= ny && s + t - 1 <= maxDepth_; ++s)
-                    if (connect(scene, reg_, y, s, z, t, c, stats, kMaxPathVertices, &rng))
+                    if (connect(scene, reg_, y, s, z, t, rrDepth_, c, stats, kMaxPathVertices, &rng))
                         record(L, c.contribution * connectionWeight(c.pdfs, s, t), false, s, t, pixel,
                                c.pdfs.regularised, strategies_ && singularPath(y, s, z, t), stats);
             }
@@ -223,11 +226,12 @@ private:
                     // densities gets the light subpath for the paths it regularises.
                     const PathVertex* ly = nullptr;  // the photon's light subpath in the store
                     const VertexPdfs* lp = nullptr;
-                    if constexpr (Reg::kPerTechnique) {
+                    if (Reg::kPerTechnique || !fastMerges) {
                         ly = store_.path(ph.path);
                         lp = store_.pdfs(ph.path);
                     }
-                    if (!merge(reg_, ph, ly, lp, z, t, c, cameraSums.data())) return;
+                    if (!merge(reg_, ph, ly, lp, z, t, rrDepth_, c, fastMerges ? cameraSums.data() : nullptr))
+                        return;
                     float w = ppm_ ? 1.f : misWeightMerge(c.pdfs, i, cfg_);
                     // (singular: the light's delta position, smooth vertices up to y[i-1] and from
                     // the merge vertex z[t-1] to the camera)
@@ -262,6 +266,7 @@ private:
     MisConfig cfg_;
     bool useConnections_ = false, useLightTracing_ = false, useMerging_ = false, ppm_ = false;
     int maxDepth_ = 0;
+    int rrDepth_ = 1;  // the walks' Russian roulette depth (rrDepthOf; path.h "Russian roulette")
     float radius_ = 0.f;
     LightPathStore store_;
     std::vector<SplatBuffer> splats_;

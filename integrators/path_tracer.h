@@ -27,6 +27,7 @@ public:
         else if (s.ptStrategy == "bsdf") strategy_ = Strategy::Bsdf;
         else throw std::invalid_argument("unknown PT strategy '" + s.ptStrategy + "' (supported: mis, nee, bsdf)");
         guiding_ = guidingSettingsOf(s);
+        rrDepth_ = rrDepthOf(s);
     }
     std::string name() const override { return "pt"; }
     void beginPass(const Scene& scene, Film&, uint32_t pass, WalkStats&) override {
@@ -103,8 +104,7 @@ public:
     [[gnu::flatten]] Color radiance(const Scene& scene, const Vec2& raster, uint32_t pixel, Rng& rng, int maxDepth,
                                     PathVertex* z, PathPdfs& pdfs, WalkStats& stats,
                                     guiding::WalkGuide* guide = nullptr) const {
-        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, rrDepthOf(settings_), z, stats, WalkPdfs::EmitterHits,
-                            guide);
+        int nz = cameraWalk(scene, reg_, raster, rng, maxDepth + 1, rrDepth_, z, stats, WalkPdfs::EmitterHits, guide);
         Color L(0.f);
         const int readLimit = misReadLimit(MisConfig{TechniqueSet::PathTracer});
         // Path guiding's training: what each vertex's techniques found (Trainer records).
@@ -117,7 +117,7 @@ public:
             // (a walk step through a delta lobe is not a path next-event estimation makes)
             bool neeImpossible = t == 2 || !reg_.connectible(z[t - 2]) || z[t - 2].delta;
             if (v.light && !(settings_.hideEmitters && t == 2) && (strategy_ != Strategy::Nee || neeImpossible)) {
-                Color c = emitterHit(scene, reg_, z, t, pdfs, readLimit);
+                Color c = emitterHit(scene, reg_, z, t, rrDepth_, pdfs, readLimit);
                 if (!isBlack(c)) {
                     const Color weighted =
                         c * (strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f);
@@ -164,7 +164,8 @@ private:
         Connection conn;
         std::optional<Rng> side;  // (detail::lightSampleStream)
         if (sampleLightVertex(scene, reg, z[t - 1].p, detail::lightSampleStream(z[t - 1], t, rng, side), y) &&
-            connect<ConnectEnds::LightToSurface>(scene, reg, &y, 1, z, t, conn, stats, readLimit, &rng, guide)) {
+            connect<ConnectEnds::LightToSurface>(scene, reg, &y, 1, z, t, rrDepth_, conn, stats, readLimit, &rng,
+                                                 guide)) {
             const Color weighted =
                 conn.contribution * (strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 1, TechniqueSet::PathTracer) : 1.f);
             record(L, weighted, 1, t, pixel, conn.pdfs.regularised, strategies_ && singularPath(&y, 1, z, t), stats);
@@ -212,7 +213,7 @@ private:
         }
         const PathVertex saved = z[t];
         z[t] = e;
-        const Color c = emitterHit(scene, reg_, z, t + 1, pdfs, readLimit, true);
+        const Color c = emitterHit(scene, reg_, z, t + 1, rrDepth_, pdfs, readLimit, true);
         z[t] = saved;
         if (!isBlack(c)) {
             const float w = strategy_ == Strategy::Mis ? misWeight(pdfs, 0, TechniqueSet::PathTracer) : 1.f;
@@ -242,7 +243,8 @@ private:
             if (!lightEndpoint(scene, reg_, li, v.p, Vec2(0.5f), y)) continue;  // (a delta light ignores u)
             if (!(glm::dot(v.shading.n, y.p - v.p) * sampleSide > 0.f)) continue;  // the other lobe's cone
             Connection conn;
-            if (!connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, conn, stats, readLimit, &rng)) continue;
+            if (!connect<ConnectEnds::LightToSurface>(scene, reg_, &y, 1, z, t, rrDepth_, conn, stats, readLimit, &rng))
+                continue;
             const float sel = scene.lightDistribution().probability(li);
             const Color c = conn.contribution * (sel / bs.pdfFwd.value);
             const float w = strategy_ == Strategy::Mis ? misWeight(conn.pdfs, 0, TechniqueSet::PathTracer) : 1.f;
@@ -275,7 +277,6 @@ private:
         auto& out = trainer_->buffer();
         const bool variance = trainer_->settings().target == guiding::Target::Variance;
         const float pixelEstimate = trainer_->pixelEstimate(pixel);
-        const int rrDepth = rrDepthOf(settings_);
         Color S(0.f);
         for (int j = nz - 2; j >= 1; --j) {
             S += found[j + 1];
@@ -285,8 +286,7 @@ private:
             const float alpha = guided ? guide.alpha[j] : 1.f;
             const float pBsdf = guide.pdfBsdf[j], pGuide = guide.pdfGuide[j];
             const float pMix = guided ? guide.mix(j, pBsdf, pGuide) : pBsdf;
-            const float cont = v.bxdf->continuation();
-            const float p = pMix * (v.depth >= rrDepth && cont < 1.f ? cont : 1.f);
+            const float p = pMix * survival(v, v.depth, rrDepth_);
             if (!(p > 0.f)) continue;
             const float s = (S.x + S.y + S.z) / 3.f;
             guiding::Record r;
@@ -324,6 +324,7 @@ private:
     static constexpr bool kEmitterSample = requires { Reg::kEmitterSample; };
     enum class Strategy { Mis, Nee, Bsdf };
     RenderSettings settings_;
+    int rrDepth_ = 1;  // the walks' Russian roulette depth (rrDepthOf; path.h "Russian roulette")
     Reg reg_;
     Strategy strategy_ = Strategy::Mis;
     std::unique_ptr<StrategyImages> strategies_;  // --strategy-images

@@ -42,6 +42,10 @@ inline SceneDesc mixedSceneWithPointInGlass(int res) {
     return d;
 }
 
+// The Russian roulette depth of the callers' walks (100: beyond every path here, so no roulette);
+// the routines below must be given the same (path.h, "Russian roulette").
+inline constexpr int kWalkRrDepth = 100;
+
 // Every connection (s, t), s + t >= 3, of a light subpath y[0..ny-1] with a camera subpath
 // z[0..nz-1] (t = 1: with the camera endpoint cam) that carries something: fn(s, t, zz, c), zz the
 // camera side used.
@@ -53,7 +57,7 @@ void forEachConnection(const Scene& scene, const Reg& jg, const PathVertex* y, i
             if (s + t < 3) continue;
             const PathVertex* zz = t == 1 ? &cam : z;
             Connection c;
-            if (connect(scene, jg, y, s, zz, t, c, ws)) fn(s, t, zz, c);
+            if (connect(scene, jg, y, s, zz, t, kWalkRrDepth, c, ws)) fn(s, t, zz, c);
         }
 }
 
@@ -70,7 +74,7 @@ void forEachMerge(const Reg& jg, const PathVertex* y, int ny, const PathVertex* 
         ph.set(0, y[m], y[m - 1], y[0].light->isHittable(), 0.0);
         for (int t = 2; t <= nz; ++t) {
             Connection c;
-            if (!merge(jg, ph, y, lp.data(), z, t, c)) continue;
+            if (!merge(jg, ph, y, lp.data(), z, t, kWalkRrDepth, c)) continue;
             std::vector<const PathVertex*> xs;
             for (int k = 0; k < m; ++k) xs.push_back(&y[k]);
             for (int k = t - 1; k >= 0; --k) xs.push_back(&z[k]);

@@ -173,7 +173,7 @@ namespace {
 
 // From-scratch pdfs of a full path x_0 (light) .. x_{n-1} (camera): every density recomputed
 // from positions, normals, BSDFs and the light, without the walks' stored values.
-PathPdfs bruteForcePdfs(const Scene& scene, const std::vector<PathVertex>& x) {
+PathPdfs bruteForcePdfs(const Scene& scene, const std::vector<PathVertex>& x, int rrDepth) {
     PathPdfs P;
     const int n = int(x.size());
     P.n = n;
@@ -191,15 +191,18 @@ PathPdfs bruteForcePdfs(const Scene& scene, const std::vector<PathVertex>& x) {
     for (int i = 2; i < n; ++i) {
         const PathVertex& v = x[i - 1];
         BsdfEval e = v.bsdf().eval(dir(v, x[i - 2]), dir(v, x[i]), TransportMode::Importance);
-        // times the roulette's continuation probability at v (path.h, "Russian roulette")
-        P.fromLight[i] = v.bxdf->isDelta() ? 0.f : v.bxdf->continuation() * areaAt(e.pdfFwd, v, x[i]);
+        // times the roulette's continuation probability at v where the light walk plays it there,
+        // i - 1 segments from the light (path.h, "Russian roulette")
+        const float cont = i - 1 >= rrDepth ? v.bxdf->continuation() : 1.f;
+        P.fromLight[i] = v.bxdf->isDelta() ? 0.f : cont * areaAt(e.pdfFwd, v, x[i]);
     }
     P.fromCamera[n - 1] = 1.f;
     P.fromCamera[n - 2] = areaAt(scene.camera().directionPdf(dir(x[n - 1], x[n - 2])), x[n - 1], x[n - 2]);
     for (int i = n - 3; i >= 0; --i) {
         const PathVertex& v = x[i + 1];
         BsdfEval e = v.bsdf().eval(dir(v, x[i + 2]), dir(v, x[i]), TransportMode::Radiance);
-        P.fromCamera[i] = v.bxdf->isDelta() ? 0.f : v.bxdf->continuation() * areaAt(e.pdfFwd, v, x[i]);
+        const float cont = n - 2 - i >= rrDepth ? v.bxdf->continuation() : 1.f;  // (v: n - 2 - i from the camera)
+        P.fromCamera[i] = v.bxdf->isDelta() ? 0.f : cont * areaAt(e.pdfFwd, v, x[i]);
     }
     for (int i = 0; i < n; ++i) P.delta[i] = x[i].kind == VertexKind::Surface && x[i].bxdf->isDelta();
     return P;
@@ -215,21 +218,25 @@ TEST_CASE("MIS: gathered pdfs equal a from-scratch evaluation and weights sum to
     std::array<PathVertex, kMaxPathVertices> y, z;
     PathVertex cam = cameraEndpoint(scene, reg::kNone);
     int checkedPaths = 0, grazingPaths = 0;
+    // Russian roulette (path.h) from the first bounce, from the second (the densities of steps
+    // from either walk's first vertex carry no continuation probability, the others do), and never.
+    for (int rrDepth : {1, 2, 100})
     for (bool merging : {false, true}) {
         MisConfig cfg{TechniqueSet::Bidirectional, merging, kPi * 0.01f * 0.01f, 64.f};
-        for (uint64_t i = 0; i < 3000; ++i) {
+        INFO("rr depth " << rrDepth << (merging ? ", merging" : ""));
+        for (uint64_t i = 0; i < 1000; ++i) {
             Rng rng(i, merging);
-            int ny = lightWalk(scene, reg::kNone, rng, 5, 100, y.data(), ws);
-            int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 5, 100, z.data(), ws);
+            int ny = lightWalk(scene, reg::kNone, rng, 5, rrDepth, y.data(), ws);
+            int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 5, rrDepth, z.data(), ws);
             for (int s = 1; s <= ny; ++s)
                 for (int t = 1; t <= nz; ++t) {
                     Connection c;
                     const PathVertex* zz = t == 1 ? &cam : z.data();
                     if (t == 1 && s == 1) continue;
-                    if (!connect(scene, reg::kNone, y.data(), s, zz, t, c, ws)) continue;
+                    if (!connect(scene, reg::kNone, y.data(), s, zz, t, rrDepth, c, ws)) continue;
                     std::vector<PathVertex> x(y.begin(), y.begin() + s);
                     for (int j = t - 1; j >= 0; --j) x.push_back(t == 1 ? cam : z[j]);
-                    PathPdfs bf = bruteForcePdfs(scene, x);
+                    PathPdfs bf = bruteForcePdfs(scene, x, rrDepth);
                     REQUIRE(c.pdfs.n == bf.n);
                     // Where a direction is grazing enough that shading and geometric normals
                     // disagree about its side, evaluation gives 0 while the walk kept its sampled
@@ -385,8 +392,8 @@ TEST_CASE("MIS: the path tracer's limited walk and gather give the full-gather w
             if (zFull[t - 1].light) {
                 PathPdfs a, b;
                 poison(b);
-                Color ca = emitterHit(scene, reg::kNone, zFull.data(), t, a);
-                Color cb = emitterHit(scene, reg::kNone, zFast.data(), t, b, limit);
+                Color ca = emitterHit(scene, reg::kNone, zFull.data(), t, 100, a);
+                Color cb = emitterHit(scene, reg::kNone, zFast.data(), t, 100, b, limit);
                 REQUIRE(ca == cb);
                 if (!isBlack(ca)) {
                     CHECK(misWeight(a, 0, cfg) == misWeight(b, 0, cfg));
@@ -398,15 +405,15 @@ TEST_CASE("MIS: the path tracer's limited walk and gather give the full-gather w
             if (!sampleLightVertex(scene, reg::kNone, zFull[t - 1].p, lr, light)) continue;
             Connection a, b;
             poison(b.pdfs);
-            bool okA = connect(scene, reg::kNone, &light, 1, zFull.data(), t, a, ws);
-            bool okB = connect(scene, reg::kNone, &light, 1, zFast.data(), t, b, ws, limit);
+            bool okA = connect(scene, reg::kNone, &light, 1, zFull.data(), t, 100, a, ws);
+            bool okB = connect(scene, reg::kNone, &light, 1, zFast.data(), t, 100, b, ws, limit);
             REQUIRE(okA == okB);
             // The path tracer's call: the same routine specialised for its known ends.
             if (!zFast[t - 1].infinite && zFast[t - 1].connectible()) {
                 Connection c;
                 poison(c.pdfs);
                 bool okC =
-                    connect<ConnectEnds::LightToSurface>(scene, reg::kNone, &light, 1, zFast.data(), t, c, ws, limit);
+                    connect<ConnectEnds::LightToSurface>(scene, reg::kNone, &light, 1, zFast.data(), t, 100, c, ws, limit);
                 REQUIRE(okC == okB);
                 if (okC) {
                     CHECK(c.contribution == b.contribution);
@@ -473,7 +480,8 @@ TEST_CASE("bidirectional images are bit-identical for 1 and 2 threads", "[bpt][d
 
 namespace {
 
-// A light-path store of `count` light subpaths (at most 5 segments), with fixed seeds.
+// A light-path store of `count` light subpaths (at most 5 segments), with fixed seeds, Russian
+// roulette from the first bounce (rrDepth 1: the fast merge forms' case, path.h).
 LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream) {
     WalkStats ws;
     LightPathStore store;
@@ -481,7 +489,7 @@ LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream) {
     for (uint64_t j = 0; j < uint64_t(count); ++j) {
         Rng rng(j, stream);
         LightPathStore::Chunk& chunk = store.chunk(j / LightPathStore::kChunkPaths);
-        chunk.commit(lightWalk(scene, reg::kNone, rng, 6, 100, chunk.next(), ws));
+        chunk.commit(lightWalk(scene, reg::kNone, rng, 6, 1, chunk.next(), ws));
     }
     return store;
 }
@@ -500,7 +508,7 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
     int merges = 0, deepMerges = 0;  // deep: the camera-side sum is used (t >= 3)
     for (uint64_t i = 0; i < 2000; ++i) {
         Rng rng(i, 78);
-        int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, 100, z.data(), ws);
+        int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, 1, z.data(), ws);
         std::array<double, kMaxPathVertices> cameraSums;
         double prev = 0.0;
         for (int m = 0; m + 1 < nz; ++m) cameraSums[m] = prev = cameraPrefixSum(z.data(), m, cfg, prev);
@@ -509,9 +517,9 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
             grid.query(z[t - 1].p, [&](const Photon& ph) {
                 Connection gathered, fast, fastBoth;
                 const VertexPdfs* pdfs = store.pdfs(ph.path);
-                bool a = merge(reg::kNone, ph, nullptr, pdfs, z.data(), t, gathered);
-                bool b = merge(reg::kNone, ph, nullptr, nullptr, z.data(), t, fast);
-                bool c = merge(reg::kNone, ph, nullptr, nullptr, z.data(), t, fastBoth, cameraSums.data());
+                bool a = merge(reg::kNone, ph, nullptr, pdfs, z.data(), t, 1, gathered);
+                bool b = merge(reg::kNone, ph, nullptr, nullptr, z.data(), t, 1, fast);
+                bool c = merge(reg::kNone, ph, nullptr, nullptr, z.data(), t, 1, fastBoth, cameraSums.data());
                 REQUIRE(a == b);
                 REQUIRE(a == c);
                 if (!a) return;

@@ -181,7 +181,7 @@ TEST_CASE("a guided vertex's density is the mixture's in the walk and in next-ev
             y.setPoint(v.p, v.ng, v.light, 1.f);
             y.init(reg::kNone, VertexKind::Light, nullptr, Vec3(0.f), 0.f, Color(1.f), AreaPdf(1.f), AreaPdf(0.f));
             Connection conn;
-            if (!connect<ConnectEnds::LightToSurface>(scene, reg::kNone, &y, 1, z.data(), t - 1, conn, ws,
+            if (!connect<ConnectEnds::LightToSurface>(scene, reg::kNone, &y, 1, z.data(), t - 1, 100, conn, ws,
                                                       kMaxPathVertices, nullptr, &guide))
                 continue;
             const float walk = v.fromCamera.value, nee = conn.pdfs.fromCamera[0];

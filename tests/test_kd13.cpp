@@ -277,7 +277,7 @@ TEST_CASE("KD13: one technique per regularised path with weight 1, unregularised
             if (!regularised) {
                 // The same connection without a regulariser: the same weight, bit for bit.
                 Connection plain;
-                REQUIRE(connect(scene, reg::kNone, y.data(), s, zz, t, plain, ws));
+                REQUIRE(connect(scene, reg::kNone, y.data(), s, zz, t, 100, plain, ws));
                 CHECK(w == misWeight(plain.pdfs, s, cfg));
                 CHECK(c.contribution == plain.contribution);
                 ++plainPaths;
@@ -335,7 +335,7 @@ TEST_CASE("KD13 in the path tracer: the cone hit's density is P(lobe), and it an
             PathVertex y;
             REQUIRE(lightEndpoint(scene, kd, 0, v.p, Vec2(0.5f), y));
             Connection c;
-            if (!connect(scene, kd, &y, 1, z.data(), t, c, ws, 0)) continue;
+            if (!connect(scene, kd, &y, 1, z.data(), t, 100, c, ws, 0)) continue;
             INFO("walk " << i << " t=" << t);
             const Vec3 toLight = glm::normalize(y.p - v.p);
             const float cosO = glm::dot(v.wo, v.shading.n), cosL = glm::dot(toLight, v.shading.n);

@@ -217,6 +217,7 @@ struct FullPath {
 struct Evaluator {
     const TestScene& ts;
     const Scene& scene;
+    int rrDepth;  // the walks' Russian roulette depth
 
     bool isDelta(const FullPath& x, int i) const {
         const int q = x.prim[i];
@@ -251,11 +252,13 @@ struct Evaluator {
             const D3 wPrev = glm::normalize(x.p[idx[j - 1]] - x.p[idx[j]]);
             const D3 wNext = glm::normalize(x.p[idx[j + 1]] - x.p[idx[j]]);
             const bool reflect = glm::dot(wPrev, n) * glm::dot(wNext, n) > 0.0;
-            // The Russian roulette's continuation probability at every interior vertex (the
-            // largest reflectance: 0.7 diffuse, 0.9 mirror, 1 glass; path.h), then the choice.
+            // The Russian roulette's continuation probability where the walk plays it, j >= rrDepth
+            // segments from its endpoint (the largest reflectance: 0.7 diffuse, 0.9 mirror, 1 glass;
+            // path.h), then the choice.
+            const bool roulette = j >= rrDepth;
             switch (q.mat) {
-                case Mat::Diffuse: pu *= 0.7 * std::abs(glm::dot(wNext, n)) / M_PI; break;
-                case Mat::Mirror: pu *= 0.9; break;
+                case Mat::Diffuse: pu *= (roulette ? 0.7 : 1.0) * std::abs(glm::dot(wNext, n)) / M_PI; break;
+                case Mat::Mirror: pu *= roulette ? 0.9 : 1.0; break;
                 case Mat::Glass: {
                     const double F = fresnel(glm::dot(wPrev, n), q.eta);
                     pu *= reflect ? F : 1.0 - F;
@@ -471,9 +474,9 @@ void compare(double ours, double indep, const char* what, int k, const FullPath&
 
 // Walks light and camera subpaths in `ts`, connects every pair (s, t) and checks the weight of
 // that technique, and of every merge on the same path, against the independent evaluation.
-Tally checkScene(const TestScene& ts, const MisConfig& cfg, int pairs, int maxVertices) {
+Tally checkScene(const TestScene& ts, const MisConfig& cfg, int pairs, int maxVertices, int rrDepth) {
     Scene scene(ts.desc);
-    Evaluator ev{ts, scene};
+    Evaluator ev{ts, scene, rrDepth};
     WalkStats ws;
     std::array<PathVertex, kMaxPathVertices> y, z;
     PathVertex cam = cameraEndpoint(scene, reg::kNone);
@@ -504,13 +507,13 @@ Tally checkScene(const TestScene& ts, const MisConfig& cfg, int pairs, int maxVe
     FullPath x;
     for (int i = 0; i < pairs; ++i) {
         Rng rng(uint64_t(i), 77);
-        const int ny = lightWalk(scene, reg::kNone, rng, maxVertices, 1000, y.data(), ws);
-        const int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * res, rng.uniform() * res), rng, maxVertices, 1000,
-                                  z.data(), ws);
+        const int ny = lightWalk(scene, reg::kNone, rng, maxVertices, rrDepth, y.data(), ws);
+        const int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * res, rng.uniform() * res), rng, maxVertices,
+                                  rrDepth, z.data(), ws);
         // s = 0: the camera walk hits the light.
         for (int t = 2; t <= nz; ++t) {
             PathPdfs pdfs;
-            if (!allowsTechnique(cfg.set, 0, t) || isBlack(emitterHit(scene, reg::kNone, z.data(), t, pdfs))) continue;
+            if (!allowsTechnique(cfg.set, 0, t) || isBlack(emitterHit(scene, reg::kNone, z.data(), t, rrDepth, pdfs))) continue;
             if (!fullPath(nullptr, 0, z.data(), t, x) || x.prim[0] != ts.lightPrim) continue;
             checkAll(pdfs, 0, x, "emitter hit");
             ++tally.emitterHits;
@@ -526,7 +529,7 @@ Tally checkScene(const TestScene& ts, const MisConfig& cfg, int pairs, int maxVe
                     yy = &lv;
                 }
                 Connection c;
-                if (!connect(scene, reg::kNone, yy, s, zz, t, c, ws)) continue;
+                if (!connect(scene, reg::kNone, yy, s, zz, t, rrDepth, c, ws)) continue;
                 if (!fullPath(yy, s, zz, t, x)) continue;
                 checkAll(c.pdfs, s, x, "connection");
             }
@@ -591,10 +594,14 @@ TEST_CASE("MIS weights through specular vertices equal those of independently ev
     // VCM: radius 0.02, 16 x 16 light paths: merges compete with connections (n_VM pi r^2 ~ 0.02).
     const MisConfig vcm{TechniqueSet::Bidirectional, true, float(kPi) * 0.02f * 0.02f, 256.f};
     const MisConfig pt{TechniqueSet::PathTracer, false};
+    // Russian roulette from depth 2 (path.h): the densities of steps from the first vertex of
+    // either walk carry no continuation probability, those from later ones do; and with none
+    // (rrDepth beyond the paths' length).
+    for (int rrDepth : {2, 1000})
     for (auto& [name, ts, ptPaths] : specularScenes())
         for (const auto& [cfgName, cfg] : {std::pair{"bpt", bpt}, std::pair{"vcm", vcm}, std::pair{"pt", pt}}) {
-            INFO(name << ", " << cfgName);
-            Tally t = checkScene(ts, cfg, 400, 8);
+            INFO(name << ", " << cfgName << ", rr depth " << rrDepth);
+            Tally t = checkScene(ts, cfg, rrDepth == 2 ? 600 : 400, 8, rrDepth);  // (the roulette ends walks)
             // Enough paths, enough of them through delta vertices, and (VCM) merges, so that
             // the test cannot pass vacuously. (PT cannot sample paths from a point light through
             // glass: NEE cannot pass the interface and the light cannot be hit.)
@@ -603,7 +610,7 @@ TEST_CASE("MIS weights through specular vertices equal those of independently ev
             CHECK(t.withDelta >= (isPt ? ptPaths / 10 : 300));
             if (cfg.merging) CHECK(t.merges >= 5000);
             if (!ts.pointLight) CHECK(t.emitterHits >= 5);
-            WARN(name << ", " << cfgName << ": " << t.checked << " paths (" << t.withDelta << " through delta vertices, "
+            WARN(name << ", " << cfgName << ", rr depth " << rrDepth << ": " << t.checked << " paths (" << t.withDelta << " through delta vertices, "
                       << t.merges << " merge weights, " << t.emitterHits << " emitter hits), largest weight difference "
                       << t.worst << " (" << t.worstWithoutDelta << " on paths without delta vertices)");
         }

@@ -56,10 +56,10 @@ Counts checkPlainVertices(const Scene& scene, Reg reg, int walks) {
             Connection ca, cb;
             WalkStats sa, sb;
             const bool okA = sampleLightVertex(scene, reg, v.p, a, ya) &&
-                             connect<ConnectEnds::LightToSurface>(scene, reg, &ya, 1, z.data(), t, ca, sa, readLimit,
+                             connect<ConnectEnds::LightToSurface>(scene, reg, &ya, 1, z.data(), t, 100, ca, sa, readLimit,
                                                                   &rouletteA);
             const bool okB = sampleLightVertex(scene, reg::kNone, v.p, b, yb) &&
-                             connect<ConnectEnds::LightToSurface>(scene, reg::kNone, &yb, 1, z.data(), t, cb, sb,
+                             connect<ConnectEnds::LightToSurface>(scene, reg::kNone, &yb, 1, z.data(), t, 100, cb, sb,
                                                                   readLimit, &rouletteB);
             INFO("walk " << i << ", vertex t = " << t);
             REQUIRE(okA == okB);

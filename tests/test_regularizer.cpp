@@ -128,8 +128,8 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
         for (int s = 2; s <= ny; ++s)
             for (int t = 2; t <= nz; ++t) {
                 Connection plain, regularised;
-                const bool okP = connect(scene, reg::kNone, y.data(), s, z.data(), t, plain, ws);
-                const bool okR = connect(scene, rougher, y.data(), s, z.data(), t, regularised, ws);
+                const bool okP = connect(scene, reg::kNone, y.data(), s, z.data(), t, 100, plain, ws);
+                const bool okR = connect(scene, rougher, y.data(), s, z.data(), t, 100, regularised, ws);
                 if (!okP || !okR) continue;
                 INFO("path " << i << " s=" << s << " t=" << t);
                 // The MIS densities are the sampling densities of the materials' own BSDFs.
@@ -171,8 +171,8 @@ TEST_CASE("regulariser seam: the context at connection and merge vertices change
             grid.query(z[t - 1].p, [&](const Photon& ph) {
                 const VertexPdfs* pdfs = store.pdfs(ph.path);
                 Connection plain, regularised;
-                const bool okP = merge(reg::kNone, ph, nullptr, pdfs, z.data(), t, plain);
-                const bool okR = merge(rougher, ph, nullptr, pdfs, z.data(), t, regularised);
+                const bool okP = merge(reg::kNone, ph, nullptr, pdfs, z.data(), t, 100, plain);
+                const bool okR = merge(rougher, ph, nullptr, pdfs, z.data(), t, 100, regularised);
                 if (!okP || !okR) return;
                 CHECK(samePdfs(plain.pdfs, regularised.pdfs));
                 const Technique tech{nullptr, ph.depth + 1, z.data(), t, &ph};
@@ -229,7 +229,8 @@ TEST_CASE("regulariser seam: a smooth connection end evaluates as the general fo
             if (i % 2) wi = glm::normalize(Vec3(-v.wo.x, -v.wo.y, (i % 4 == 1 ? 1.f : -1.f) * v.wo.z) + 0.05f * wi);
             for (const BsdfContext& ctx : contexts) {
                 float ratio = 1.f, pdf = 0.f, ratioRef = 1.f, pdfRef = 0.f;
-                const BsdfEval e = detail::evalAtConnection(v, wi, ctx, ratio, pdf);
+                const detail::Survival sv{0.8f, 0.6f};  // (the roulette's factors, as a connection gives them)
+                const BsdfEval e = detail::evalAtConnection(v, wi, ctx, sv, ratio, pdf);
                 // the general form
                 BsdfEval r = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
                 if (detail::requestCanChange(v, ctx)) {
@@ -241,7 +242,7 @@ TEST_CASE("regulariser seam: a smooth connection end evaluates as the general fo
                 } else {
                     leftDelta += !ctx.reg.empty();
                 }
-                detail::applyContinuation(r, *v.bxdf);
+                detail::applySurvival(r, sv);
                 CHECK(e.f == r.f);
                 CHECK(e.pdfFwd.value == r.pdfFwd.value);
                 CHECK(e.pdfRev.value == r.pdfRev.value);
@@ -276,9 +277,9 @@ TEST_CASE("regulariser seam: per-technique densities enter every technique's MIS
                     if (s == 1 && t == 1) continue;
                     const PathVertex* zz = t == 1 ? &cam : z.data();
                     Connection plain, ones, withFactors;
-                    if (!connect(scene, reg::kNone, y.data(), s, zz, t, plain, ws)) continue;
-                    REQUIRE(connect(scene, unit, y.data(), s, zz, t, ones, ws));
-                    REQUIRE(connect(scene, scaled, y.data(), s, zz, t, withFactors, ws));
+                    if (!connect(scene, reg::kNone, y.data(), s, zz, t, 100, plain, ws)) continue;
+                    REQUIRE(connect(scene, unit, y.data(), s, zz, t, 100, ones, ws));
+                    REQUIRE(connect(scene, scaled, y.data(), s, zz, t, 100, withFactors, ws));
                     INFO("path " << i << " s=" << s << " t=" << t << " merging " << merging);
                     CHECK_FALSE(plain.pdfs.perTechnique);
                     CHECK(withFactors.pdfs.perTechnique);
@@ -339,8 +340,8 @@ TEST_CASE("regulariser seam: per-technique densities keep the path tracer's limi
                 CHECK(zFast[t - 1].fromCamera.value == zFull[t - 1].fromCamera.value);  // computed at emitters
                 PathPdfs a, b;
                 poison(b);
-                const Color ca = emitterHit(scene, scaled, zFull.data(), t, a);
-                const Color cb = emitterHit(scene, scaled, zFast.data(), t, b, limit);
+                const Color ca = emitterHit(scene, scaled, zFull.data(), t, 100, a);
+                const Color cb = emitterHit(scene, scaled, zFast.data(), t, 100, b, limit);
                 REQUIRE(ca == cb);
                 if (!isBlack(ca)) {
                     REQUIRE(b.perTechnique);
@@ -357,9 +358,9 @@ TEST_CASE("regulariser seam: per-technique densities keep the path tracer's limi
             REQUIRE(sampleLightVertex(scene, scaled, zFast[t - 1].p, lr2, light2));
             Connection a, b;
             poison(b.pdfs);
-            const bool okA = connect(scene, scaled, &light, 1, zFull.data(), t, a, ws);
+            const bool okA = connect(scene, scaled, &light, 1, zFull.data(), t, 100, a, ws);
             const bool okB =
-                connect<ConnectEnds::LightToSurface>(scene, scaled, &light2, 1, zFast.data(), t, b, ws, limit);
+                connect<ConnectEnds::LightToSurface>(scene, scaled, &light2, 1, zFast.data(), t, 100, b, ws, limit);
             REQUIRE(okA == okB);
             if (!okA) continue;
             const float w = misWeight(b.pdfs, 1, TechniqueSet::PathTracer);

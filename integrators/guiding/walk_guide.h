@@ -45,8 +45,8 @@ struct WalkGuide {
     bool guided(int i) const { return active[i]; }
     // The mixture's density at guided vertex i from the BSDF's and the guide's.
     float mix(int i, float pdfBsdf, float pdfGuide) const { return alpha[i] * pdfBsdf + (1.f - alpha[i]) * pdfGuide; }
-    // The mixture's density of d at guided vertex i from the BSDF's, both times the walk's
-    // continuation probability `cont` (the BSDF's comes with it).
+    // The mixture's density of d at guided vertex i from the BSDF's, both times the roulette's
+    // factor `cont` there (survival, path.h; the BSDF's comes with it).
     float mixture(int i, float bsdfPdfCont, const Vec3& d, float cont) const {
         return mix(i, bsdfPdfCont, cont * leaf[i]->sampling.pdf(d).value);
     }

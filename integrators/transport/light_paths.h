@@ -10,11 +10,15 @@
 
 namespace lt {
 
-// A light vertex's densities (names: see the top of path.h), apart from the vertex.
+// A light vertex's densities (names: see the top of path.h), apart from the vertex, and its BSDF's
+// continuation probability (the factor the gathers put on its predecessor's fromCamera: survival).
 struct VertexPdfs {
     float fromLight = 0.f, fromCamera = 0.f;
+    float continuation = 1.f;
     bool delta = false;
-    static VertexPdfs of(const PathVertex& v) { return {v.fromLight.value, v.fromCamera.value, v.delta}; }
+    static VertexPdfs of(const PathVertex& v) {
+        return {v.fromLight.value, v.fromCamera.value, v.bxdf ? v.bxdf->continuation() : 1.f, v.delta};
+    }
 };
 
 class LightPathStore {

@@ -176,19 +176,22 @@ double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisC
         own += q * q;
     }
     if (m == 0) return own;
-    double ratio = remapDensity(y[m - 1].fromCamera) / remapDensity(y[m - 1].fromLight);
+    // (y[m-1]'s fromCamera with the roulette at y[m]: rrDepth 1, see path.h)
+    double ratio = remapDensity(y[m - 1].fromCamera * y[m].continuation) / remapDensity(y[m - 1].fromLight);
     return own + ratio * ratio * prev;
 }
 
 double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double prev) {
     // Technique with camera side z[0..m] (t' = m + 1; its light side ends at z[m+1]'s position),
     // and the merge at z[m] (not at the camera).
+    // (z[m]'s fromLight with the roulette at z[m+1]: rrDepth 1, see path.h)
+    const double fromLight = remapDensity(z[m].fromLight.value * survival(z[m + 1], 1, 1));
     double own = allowsTechnique(cfg.set, 1, m + 1) && !z[m + 1].delta && !z[m].delta ? 1.0 : 0.0;
     if (cfg.merging && m >= 1 && !z[m].delta) {
-        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * remapDensity(z[m].fromLight.value);
+        double q = double(cfg.mergeArea) * double(cfg.lightPaths) * fromLight;
         own += q * q;
     }
-    double ratio = remapDensity(z[m].fromLight.value) / remapDensity(z[m].fromCamera.value);
+    double ratio = fromLight / remapDensity(z[m].fromCamera.value);
     return own + ratio * ratio * prev;
 }
 

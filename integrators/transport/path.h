@@ -39,16 +39,20 @@
 //
 // Russian roulette. A walk leaves a surface vertex v with probability c_v = Bxdf::continuation()
 // (the largest scale of the material's lobes, at most 1; SmallVCM's ContinuationProb) and divides
-// the throughput by it, from depth rr_depth on. c_v is a property of the vertex alone, so it is
-// the same for a walk from either side: both densities a walk derives from v's BSDF (of the next
-// vertex, and the reverse one of the previous) carry it, and so do the densities evaluated at a
-// connection or merge vertex (evalAtConnection, refreshPdfs). The MIS sum then compares the
-// techniques' true densities, as SmallVCM's does, exactly when rr_depth is 1 (the default); with
-// a larger rr_depth the vertices nearer an endpoint than rr_depth are continued with probability 1
-// but their densities still carry c_v (the weights remain a partition of unity: every technique
-// reads the same densities). Unlike a roulette on the throughput (which kept long paths' throughput
-// near 1 and made those few that reached a light through glass into fireflies), the weight of a
-// Lambert bounce over c_v is at most 1: a throughput never grows.
+// the throughput by it where it is at least rrDepth segments from its endpoint; nearer, it always
+// goes on. So c_v belongs to the density of a step from v exactly where the walk taking that step
+// plays the roulette: on a full path x_0..x_{n-1}, pL[i+1] carries c_i iff i >= rrDepth and
+// pC[i-1] carries c_i iff n-1-i >= rrDepth (survival() below). Both are properties of the path and
+// rrDepth alone, the same for every technique, so the weights stay a partition of unity and the MIS
+// sum compares the techniques' true densities. A walk knows its own side's depth, so its own
+// densities carry the factor; the reverse densities it writes (of the previous vertex) depend on
+// the full path's length, so they are stored without it and the gathers apply it (and a
+// connection or merge vertex's recomputed densities apply it there). With rrDepth 1 every interior
+// vertex carries c_v on both sides (SmallVCM's densities); with the path tracer's rrDepth 5 the
+// first bounces' BSDF densities carry none, as the sampling that made them, and next-event
+// estimation there is weighted against the BSDF's own density. Unlike a roulette on the
+// throughput (which kept long paths' throughput near 1 and made those few that reached a light
+// through glass into fireflies), the weight of a Lambert bounce over c_v is at most 1.
 #pragma once
 #include <array>
 #include <optional>
@@ -136,6 +140,12 @@ inline AreaPdf convertDensity(SolidAnglePdf pdf, const PathVertex& to, const Vec
     if (!(dist2 > 0.f)) return AreaPdf(0.f);
     float c = to.onSurface() ? std::abs(glm::dot(to.ng, dir)) : 1.f;
     return AreaPdf(pdf.value * c / dist2);
+}
+
+// The roulette's factor on the density of a step a walk takes from v when v lies `segments` from
+// that walk's endpoint: c_v from rrDepth on, else 1 (and 1 at a vertex without a BSDF: endpoints).
+inline float survival(const PathVertex& v, int segments, int rrDepth) {
+    return segments >= rrDepth && v.bxdf ? v.bxdf->continuation() : 1.f;
 }
 
 // The rays a walk or connection casts, logged when WalkStats::log is set (tools/raybench replays
@@ -302,11 +312,12 @@ struct Connection {
 // fold away): LightToSurface is next-event estimation, s = 1 with y[0] a light endpoint
 // (sampleLightVertex) and z[t-1] a surface vertex the caller found connectible and not at infinity.
 // `roulette`: the sample's stream, from which the regulariser's tail roulette splits its number
-// (regularizer.h (9)); null: every connection is traced.
+// (regularizer.h (9)); null: every connection is traced. rrDepth: the walks' ("Russian roulette"
+// above; it decides which densities carry c_v). The same in emitterHit and merge.
 enum class ConnectEnds { Any, LightToSurface };
 template <ConnectEnds ends = ConnectEnds::Any, class Reg>
 inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
-                    Connection& c, WalkStats& stats, int readLimit = kMaxPathVertices, const Rng* roulette = nullptr,
+                    int rrDepth, Connection& c, WalkStats& stats, int readLimit = kMaxPathVertices, const Rng* roulette = nullptr,
                     const guiding::WalkGuide* guide = nullptr);
 
 // Technique s = 0: z[t-1] lies on an emitter (or at infinity). Returns Le * beta (unweighted) and
@@ -314,7 +325,7 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
 // regularisedSample: z[t-1] was reached by the path tracer's regularised BSDF sample at z[t-2]
 // (regularizer.h (6)), not by the walk.
 template <class Reg>
-Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs,
+Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, int rrDepth, PathPdfs& pdfs,
                  int readLimit = kMaxPathVertices, bool regularisedSample = false);
 
 // Merge (vertex merging) of light vertex y[i] (i >= 1; `photon` holds what is needed of y[i] and
@@ -324,17 +335,21 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
 // and the pdfs of the merged path for misWeightMerge(pdfs, i).
 // With lightPdfs == nullptr the fast form is used: only the camera side and the merge vertex's
 // neighbours are gathered, and the light side comes from photon.misLight (lightPrefixSum).
+// The fast forms hold for rrDepth 1 only (see lightPrefixSum): with a larger rrDepth the caller
+// gives lightPdfs and no cameraSums.
 struct Photon;
 struct VertexPdfs;
 // With cameraSums (cameraSums[m] = cameraPrefixSum of z[m]) the camera side is O(1) too.
 // (path_templates.h)
 template <class Reg>
 bool merge(const Reg& reg, const Photon& photon, const PathVertex* y, const VertexPdfs* lightPdfs, const PathVertex* z,
-           int t, Connection& c, const double* cameraSums = nullptr);
+           int t, int rrDepth, Connection& c, const double* cameraSums = nullptr);
 
 // For light vertex y[m] of a light subpath (pdfs of y[0..m]): the sum over techniques k <= m of
 // (p_k / p_VC(m+1))^2 / (pC[m] / pL[m])^2, i.e. what a merge at y[m+1] needs of the light side
-// (SmallVCM's partial quantities in sum form). Recursive in m.
+// (SmallVCM's partial quantities in sum form). Recursive in m. Computed before the full path is
+// known, it gives every reverse density the roulette's factor: right for rrDepth 1 (every interior
+// vertex carries c_v on both sides), which is when the fast forms are used. So does cameraPrefixSum.
 double lightPrefixSum(const VertexPdfs* y, int m, bool lightHittable, const MisConfig& cfg, double prev);
 
 // The camera-side mirror of lightPrefixSum, for camera vertex z[m] (m + 1 < number of camera
@@ -346,8 +361,11 @@ double cameraPrefixSum(const PathVertex* z, int m, const MisConfig& cfg, double 
 
 // Gathers the pdfs of the camera subpath z[0..t-1] into pdfs (x indices s..s+t-1, those above
 // readLimit + 1 skipped: see misReadLimit), n = s + t.
-inline void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit = kMaxPathVertices);
-inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs);
+// The stored reverse densities get the roulette's factor here (survival: it depends on n and the
+// walks' rrDepth).
+inline void gatherCameraPdfs(const PathVertex* z, int t, int s, int rrDepth, PathPdfs& pdfs,
+                             int readLimit = kMaxPathVertices);
+inline void gatherLightPdfs(const PathVertex* y, int s, int t, int rrDepth, PathPdfs& pdfs);
 
 inline bool reg::None::connectible(const PathVertex& v) const { return v.connectible(); }
 inline bool reg::None::mergeable(const PathVertex& v) const { return v.connectible(); }

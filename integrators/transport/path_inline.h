@@ -71,19 +71,22 @@ inline bool requestCanChange(const PathVertex& v, const BsdfContext& ctx) {
     return !(v.deltaBsdf && v.bxdf->deltaUnder(ctx));
 }
 
-// The densities of an evaluation of v's BSDF as a walk would have them: times v's continuation
-// probability ("Russian roulette", path.h; the walk itself applies it to its samples).
-inline void applyContinuation(BsdfEval& e, const Bxdf& b) {
-    const float cont = b.continuation();
-    e.pdfFwd.value *= cont;
-    e.pdfRev.value *= cont;
+// The densities of an evaluation of v's BSDF as the walks would have them: times the roulette's
+// factors (survival, path.h "Russian roulette") of the walk sampling wi (fwd) and of the one
+// sampling wo (rev).
+struct Survival {
+    float fwd = 1.f, rev = 1.f;
+};
+inline void applySurvival(BsdfEval& e, Survival sv) {
+    e.pdfFwd.value *= sv.fwd;
+    e.pdfRev.value *= sv.rev;
 }
 
 // A connection (or merge) vertex's BSDF towards wi, evaluated with the technique's context
 // (regularizer.h (1)): the value is the regularised one, the densities stay those of the
 // material's own BSDF, which is what the walks sample (a request changes a technique's density in
-// the MIS only through its per-technique factor, regularizer.h (2)), times the vertex's
-// continuation probability as the walks' densities ("Russian roulette", path.h). `ratio` receives
+// the MIS only through its per-technique factor, regularizer.h (2)), times the roulette's factors
+// `sv` as the walks' densities ("Russian roulette", path.h). `ratio` receives
 // rho_hat / rho (channel means; +inf when rho is 0 or a delta) and `regularisedPdf` the
 // regularised BSDF's own density of wi (for a policy whose competing technique samples it: OPSR's
 // regularised BSDF sample; not written for a value-only context). Where the request cannot change
@@ -96,7 +99,7 @@ inline void applyContinuation(BsdfEval& e, const Bxdf& b) {
 // measured -0.8% instructions for BPT with OPSR on cornell-box-ggx, the same for plain BPT.)
 template <bool mayRequest = true>
 [[gnu::always_inline]] inline BsdfEval evalAtConnection(const PathVertex& v, const Vec3& wi, const BsdfContext& ctx,
-                                                        float& ratio, float& regularisedPdf) {
+                                                        Survival sv, float& ratio, float& regularisedPdf) {
     const bool request = mayRequest && !ctx.reg.empty();
     BsdfEval e;
     if (!(request && v.deltaBsdf)) e = v.bsdf().eval(v.wo, wi, plainContext(ctx.mode));
@@ -116,7 +119,7 @@ template <bool mayRequest = true>
                     e.f = plain * r;
                     ratio = r;
                     if (!ctx.valueOnly) regularisedPdf = e.pdfFwd.value * p;
-                    applyContinuation(e, *v.bxdf);
+                    applySurvival(e, sv);
                     return e;
                 }
             }
@@ -126,7 +129,7 @@ template <bool mayRequest = true>
         regularisedPdf = r.pdfFwd.value;
         ratio = regularisedRatio(e.f, plain);
     }
-    applyContinuation(e, *v.bxdf);
+    applySurvival(e, sv);
     return e;
 }
 
@@ -215,22 +218,26 @@ inline float misWeight(const PathPdfs& pdfs, int s, TechniqueSet set) {
     return misWeight(pdfs, s, MisConfig{set});
 }
 
-inline void gatherCameraPdfs(const PathVertex* z, int t, int s, PathPdfs& pdfs, int readLimit) {
+inline void gatherCameraPdfs(const PathVertex* z, int t, int s, int rrDepth, PathPdfs& pdfs, int readLimit) {
     pdfs.n = s + t;
     // Entries up to readLimit + 1: the density there is not read, the delta flag is (cheap to copy).
     const int limit = readLimit < kMaxPathVertices ? readLimit + 1 : readLimit;
     for (int j = std::max(0, s + t - 1 - limit); j < t; ++j) {
         int i = s + t - 1 - j;
         pdfs.fromCamera[i] = z[j].fromCamera.value;
-        pdfs.fromLight[i] = z[j].fromLight.value;
+        // (sampled from z[j+1] = x_{i-1} by a light walk; the two entries nearest the far end are
+        // recomputed by every routine)
+        pdfs.fromLight[i] = z[j].fromLight.value * (j + 1 < t ? survival(z[j + 1], i - 1, rrDepth) : 1.f);
         pdfs.delta[i] = z[j].delta;
     }
 }
 
-inline void gatherLightPdfs(const PathVertex* y, int s, PathPdfs& pdfs) {
+inline void gatherLightPdfs(const PathVertex* y, int s, int t, int rrDepth, PathPdfs& pdfs) {
+    const int n = s + t;
     for (int i = 0; i < s; ++i) {
         pdfs.fromLight[i] = y[i].fromLight.value;
-        pdfs.fromCamera[i] = y[i].fromCamera.value;
+        // (sampled from y[i+1] = x_{i+1} by a camera walk, n - 2 - i segments from the camera)
+        pdfs.fromCamera[i] = y[i].fromCamera.value * (i + 1 < s ? survival(y[i + 1], n - 2 - i, rrDepth) : 1.f);
         pdfs.delta[i] = y[i].delta;
     }
     pdfs.lightHittable = s > 0 && y[0].light && y[0].light->isHittable();
@@ -260,7 +267,7 @@ inline bool lightEndpoint(const Scene& scene, const Reg& reg, size_t li, const V
 
 template <ConnectEnds ends, class Reg>
 inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int s, const PathVertex* z, int t,
-                    Connection& c, WalkStats& stats, int readLimit, const Rng* roulette,
+                    int rrDepth, Connection& c, WalkStats& stats, int readLimit, const Rng* roulette,
                     const guiding::WalkGuide* guide) {
     Technique tech{y, s, z, t};
     const PathVertex& a = y[s - 1];  // light side
@@ -323,14 +330,15 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
             cosB = glm::dot(cam.forward(), wBA);
         }
     } else {
-        eb = request ? detail::evalAtConnection<true>(b, wBA, reg.context(tech, End::Camera), tech.ratioCamera,
+        // (b = x_s: the camera walk samples a from t - 1 segments, the light walk z[t-2] from s)
+        const detail::Survival sv{survival(b, t - 1, rrDepth), survival(b, s, rrDepth)};
+        eb = request ? detail::evalAtConnection<true>(b, wBA, reg.context(tech, End::Camera), sv, tech.ratioCamera,
                                                       tech.pdfCamera)
-                     : detail::evalAtConnection<false>(b, wBA, kRadianceContext, tech.ratioCamera, tech.pdfCamera);
+                     : detail::evalAtConnection<false>(b, wBA, kRadianceContext, sv, tech.ratioCamera, tech.pdfCamera);
         cosB = std::abs(glm::dot(b.shading.n, wBA));
         // A guided camera end: the walk samples the mixture there (walk_guide.h), so the camera
         // walk's density of a is the mixture's, before any policy scales it.
-        if (guide && guide->guided(t - 1))
-            eb.pdfFwd = SolidAnglePdf(guide->mixture(t - 1, eb.pdfFwd.value, wBA, b.bxdf->continuation()));
+        if (guide && guide->guided(t - 1)) eb.pdfFwd = SolidAnglePdf(guide->mixture(t - 1, eb.pdfFwd.value, wBA, sv.fwd));
     }
     if (isBlack(eb.f)) return false;
     Color fa;
@@ -338,9 +346,11 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     if (aLight) {
         fa = detail::lightEndpointValue(a, -wBA);
     } else {
-        ea = request ? detail::evalAtConnection<true>(a, -wBA, reg.context(tech, End::Light), tech.ratioLight,
+        // (a = x_{s-1}: the light walk samples b from s - 1 segments, the camera walk y[s-2] from t)
+        const detail::Survival sv{survival(a, s - 1, rrDepth), survival(a, t, rrDepth)};
+        ea = request ? detail::evalAtConnection<true>(a, -wBA, reg.context(tech, End::Light), sv, tech.ratioLight,
                                                       tech.pdfLight)
-                     : detail::evalAtConnection<false>(a, -wBA, kImportanceContext, tech.ratioLight, tech.pdfLight);
+                     : detail::evalAtConnection<false>(a, -wBA, kImportanceContext, sv, tech.ratioLight, tech.pdfLight);
         fa = ea.f;
     }
     if (isBlack(fa)) return false;
@@ -360,8 +370,8 @@ inline bool connect(const Scene& scene, const Reg& reg, const PathVertex* y, int
     // MIS pdfs: the path's own, with the four values at the connection recomputed.
     PathPdfs& P = c.pdfs;
     P.belowBase = P.aboveBase = -1.0;
-    gatherLightPdfs(y, s, P);
-    gatherCameraPdfs(z, t, s, P, readLimit);
+    gatherLightPdfs(y, s, t, rrDepth, P);
+    gatherCameraPdfs(z, t, s, rrDepth, P, readLimit);
     // The segments' directions and lengths are known: a-b here, and the walks' own segments
     // arriving at a and b (wo, segmentLength).
     // (Densities above readLimit are not read: the path tracer skips all but x_0's.)

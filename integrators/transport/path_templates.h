@@ -23,19 +23,20 @@ using VertexDensity = AreaPdf PathVertex::*;
 // offset origin, so the densities of the segment path[i-1] -> path[i] are re-evaluated with the
 // direction between the two vertex positions (the solid-angle pdfFwd that gives the walk's own
 // density of path[i], and the reverse density of path[i-2]). Keeps the sampled values where the
-// re-evaluation gives zero (grazing directions).
+// re-evaluation gives zero (grazing directions). The walk's own density carries the roulette's
+// factor at prev (survival), the reverse one is stored without it (the gathers apply it).
 // (A guided prev: the mixture's density, guide->mixture.)
-static void refreshPdfs(const Scene& scene, PathVertex* path, int i, const BsdfContext& ctx, VertexDensity rev,
-                        SolidAnglePdf& pdfFwd, const guiding::WalkGuide* guide) {
+static void refreshPdfs(const Scene& scene, PathVertex* path, int i, int rrDepth, const BsdfContext& ctx,
+                        VertexDensity rev, SolidAnglePdf& pdfFwd, const guiding::WalkGuide* guide) {
     const PathVertex& prev = path[i - 1];
     const Vec3 d = -path[i].wo;
     switch (prev.kind) {
         case VertexKind::Surface:
             if (!prev.delta && prev.bxdf) {
                 BsdfEval e = prev.bsdf().eval(prev.wo, d, ctx);
-                detail::applyContinuation(e, *prev.bxdf);  // the roulette at prev
-                if (guide && guide->guided(i - 1))
-                    e.pdfFwd = SolidAnglePdf(guide->mixture(i - 1, e.pdfFwd.value, d, prev.bxdf->continuation()));
+                const float sv = survival(prev, prev.depth, rrDepth);  // the roulette at prev
+                e.pdfFwd.value *= sv;
+                if (guide && guide->guided(i - 1)) e.pdfFwd = SolidAnglePdf(guide->mixture(i - 1, e.pdfFwd.value, d, sv));
                 if (e.pdfFwd.value > 0.f) pdfFwd = e.pdfFwd;
                 if (i >= 2 && e.pdfRev.value > 0.f)
                     path[i - 2].*rev = convertDensity(e.pdfRev, path[i - 2], prev.wo, sqr(prev.segmentLength));
@@ -132,7 +133,7 @@ int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAng
         const AreaPdf unfilled(allPdfs ? 0.f : kNotComputed);
         v.init(reg, VertexKind::Surface, &prev, wo, backLen, beta, unfilled, unfilled);
         if (allPdfs || v.light) {
-            refreshPdfs(scene, path, n, ctx, rev, pdfFwd, guide);
+            refreshPdfs(scene, path, n, rrDepth, ctx, rev, pdfFwd, guide);
             v.*fwd = convertDensity(pdfFwd, v, v.wo, sqr(backLen));
         }
         ++n;
@@ -150,12 +151,12 @@ int randomWalk(const Scene& scene, const Reg& reg, Ray ray, Color beta, SolidAng
                 guide->pdfGuide[n - 1] = 0.25f * kInvPi;
             }
         }
-        // The roulette's continuation probability is part of both densities of the next vertex
-        // (and of prev, below) whether or not the roulette runs at this depth ("Russian
-        // roulette", path.h).
+        // The roulette's continuation probability is part of the walk's own density of the next
+        // vertex where the roulette runs at v; the reverse density of prev is stored without it
+        // ("Russian roulette", path.h).
         const float cont = v.bxdf->continuation();
-        SolidAnglePdf pdfRev(bs.pdfRev.value * cont);
-        pdfFwd = SolidAnglePdf(bs.pdfFwd.value * cont);
+        SolidAnglePdf pdfRev = bs.pdfRev;
+        pdfFwd = SolidAnglePdf(bs.pdfFwd.value * survival(v, v.depth, rrDepth));
         if (bs.lobe & kDelta) {
             // No technique connects here (the MIS routine skips them), but the techniques on
             // either side of v compare densities that cross it: the generalised densities of
@@ -261,8 +262,8 @@ int lightWalk(const Scene& scene, const Reg& reg, Rng& rng, int maxVertices, int
 }
 
 template <class Reg>
-Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, PathPdfs& pdfs, int readLimit,
-                 bool regularisedSample) {
+Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t, int rrDepth, PathPdfs& pdfs,
+                 int readLimit, bool regularisedSample) {
     const PathVertex& v = z[t - 1];
     if (!v.light || t < 2) return Color(0.f);
     Color Le = v.light->Le(v.ng, v.wo, v.uv);
@@ -270,7 +271,7 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
     Technique tech{nullptr, 0, z, t};
     tech.regularisedSample = regularisedSample;
     if (!reg.select(tech)) return Color(0.f);  // regularizer.h (5)
-    gatherCameraPdfs(z, t, 0, pdfs, readLimit);
+    gatherCameraPdfs(z, t, 0, rrDepth, pdfs, readLimit);
     pdfs.belowBase = pdfs.aboveBase = -1.0;
     float sel = scene.lightSelectionProb(v.light);
     pdfs.fromLight[0] = sel * v.light->pdfLi(scene, z[t - 2].p, v.p, v.ng, -v.wo).value;
@@ -288,14 +289,16 @@ Color emitterHit(const Scene& scene, const Reg& reg, const PathVertex* z, int t,
 
 template <class Reg>
 bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPdfs* lightPdfs, const PathVertex* z,
-           int t, Connection& c, const double* cameraSums) {
+           int t, int rrDepth, Connection& c, const double* cameraSums) {
     const int i = ph.depth;
     const PathVertex& zv = z[t - 1];
     if (i < 1 || t < 2 || !reg.mergeable(zv) || zv.infinite) return false;
     if (glm::dot(ph.ng, zv.ng) <= 0.f) return false;  // the photon lies on the other side
     Technique tech{y, i + 1, z, t, &ph};
     if (!reg.select(tech)) return false;  // regularizer.h (5)
-    BsdfEval ez = detail::evalAtConnection<reg::kMayRequest<Reg>>(zv, ph.wo, reg.context(tech, End::Camera),
+    // (zv = x_i: the camera walk samples y[i-1] from t - 1 segments, the light walk z[t-2] from i)
+    const detail::Survival sv{survival(zv, t - 1, rrDepth), survival(zv, i, rrDepth)};
+    BsdfEval ez = detail::evalAtConnection<reg::kMayRequest<Reg>>(zv, ph.wo, reg.context(tech, End::Camera), sv,
                                                                   tech.ratioCamera, tech.pdfCamera);
     if (isBlack(ez.f)) return false;
     c.contribution = zv.beta * ez.f * ph.beta;
@@ -312,9 +315,13 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
     P.belowBase = -1.0;
     P.aboveBase = cameraSums ? (t >= 3 ? cameraSums[t - 3] : 0.0) : -1.0;
     if (gatherLight) {
+        // (fromCamera of y[k] is sampled from y[k+1] by a camera walk, n - 2 - k segments from the
+        // camera, n = i + t; the entries at k = i - 1 and i are recomputed below)
+        const int n = i + t;
         for (int k = 0; k <= i; ++k) {
             P.fromLight[k] = lightPdfs[k].fromLight;
-            P.fromCamera[k] = lightPdfs[k].fromCamera;
+            P.fromCamera[k] =
+                lightPdfs[k].fromCamera * (k < i && n - 2 - k >= rrDepth ? lightPdfs[k + 1].continuation : 1.f);
             P.delta[k] = lightPdfs[k].delta;
         }
     } else {
@@ -322,7 +329,7 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
         P.delta[i - 1] = ph.prevDelta != 0;
     }
     P.lightHittable = ph.lightHittable != 0;
-    gatherCameraPdfs(z, t, i, P, cameraSums ? i + 1 : kMaxPathVertices);
+    gatherCameraPdfs(z, t, i, rrDepth, P, cameraSums ? i + 1 : kMaxPathVertices);
     P.fromLight[i] = ph.fromLight;
     P.delta[i] = false;
     // Camera walk continuing from the merge vertex to y[i-1].
@@ -350,8 +357,8 @@ bool merge(const Reg& reg, const Photon& ph, const PathVertex* y, const VertexPd
     template PathVertex cameraEndpoint(const Scene&, const Reg&);                                            \
     template int cameraWalk(const Scene&, const Reg&, const Vec2&, Rng&, int, int, PathVertex*, WalkStats&,  \
                             WalkPdfs, guiding::WalkGuide*);                                                  \
-    template Color emitterHit(const Scene&, const Reg&, const PathVertex*, int, PathPdfs&, int, bool);       \
+    template Color emitterHit(const Scene&, const Reg&, const PathVertex*, int, int, PathPdfs&, int, bool);  \
     template bool merge(const Reg&, const Photon&, const PathVertex*, const VertexPdfs*, const PathVertex*, \
-                        int, Connection&, const double*);
+                        int, int, Connection&, const double*);
 
 }  // namespace lt
