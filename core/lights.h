@@ -129,7 +129,8 @@ public:
     SolidAnglePdf pdfLeDir(const Vec3& n, const Vec3& dir) const;
     AreaPdf pdfLePos(const Scene& scene) const;
 
-    // Total emitted power (for choosing lights), needs the scene radius for infinite lights.
+    // Total emitted power, needs the scene radius for infinite lights (a light of power 0 is never
+    // chosen by a light sample: core/scene.cpp, lightSelectionWeights).
     float power(const Scene& scene) const;
 
 private:

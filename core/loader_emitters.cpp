@@ -27,6 +27,15 @@ void noTexturesOn(const std::map<std::string, const Elem*>& textures, const std:
                               "'texture', projector 'irradiance')", type, textures.begin()->first));
 }
 
+// Mitsuba 3's `sampling_weight` of every emitter (render/emitter.cpp, default 1): the light's
+// choice among the scene's lights scales with it (core/scene.cpp, lightSelectionWeights).
+float samplingWeight(Props& p) {
+    const float w = p.getFloat("sampling_weight", 1.f);
+    if (!(std::isfinite(w) && w >= 0.f))
+        p.failAt("sampling_weight", fmt::format("must be finite and >= 0 (got {})", w));
+    return w;
+}
+
 }  // namespace
 
 Emitters::Emitters(const xml::Document& doc, Materials& materials, std::vector<EmitterDesc>& emitters,
@@ -47,7 +56,7 @@ EmitterDesc Emitters::areaDesc(const Elem& e) {
     d.texture = emitterTexture(textures, "radiance");
     if (!d.texture) d.value = nonNegColor(p, "radiance", Color(1.f));
     noTexturesOn(textures, "area");
-    p.ignore({"sampling_weight"});
+    d.samplingWeight = samplingWeight(p);
     noObjects(p, "textures are not supported");
     p.finish();
     return d;
@@ -193,7 +202,7 @@ void Emitters::topEmitter(const Elem& e) {
         d.value = nonNegColor(p, "radiance", Color(1.f));
     }
     noTexturesOn(textures, t);
-    p.ignore({"sampling_weight"});
+    d.samplingWeight = samplingWeight(p);
     noObjects(p, "textures and nested plugins are not supported");
     p.finish();
     if (d.type == EmitterType::Envmap) {  // (read once the parameters are known to be valid)

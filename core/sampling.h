@@ -74,7 +74,7 @@ inline float powerHeuristic(float a, float b) {
     return a2 + b2 > 0.f ? a2 / (a2 + b2) : 0.f;
 }
 
-// Piecewise-constant 1D distribution (for lights by power, triangles by area).
+// Piecewise-constant 1D distribution (for the choice between lights, triangles by area).
 // Sampling is a branch-free binary search (a fixed number of steps for a given size, so no
 // mispredicted branches on random u) and remaps u within the bin by a multiplication; a bin's
 // cdf and inverse width sit together (one cache line, one base pointer).

@@ -5,6 +5,7 @@
 #include <fmt/core.h>
 #include <immintrin.h>
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <stdexcept>
 #include <type_traits>
@@ -122,6 +123,46 @@ float meanCurvature(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& 
     return std::isfinite(h) ? float(h) : 0.f;
 }
 
+namespace {
+
+// The weights of the choice between lights, shared by next-event estimation and the light walks
+// (one Distribution1D: what is sampled and the probability read back agree), by `rule`, each times
+// the light's sampling_weight: Uniform is Mitsuba 3's (its src/render/scene.cpp,
+// update_emitter_sampling_distribution), Power in proportion to the power, Mixture half of each
+// (normalised apart, so neither half depends on the other's scale). A light that emits nothing
+// (power 0, e.g. black) is never chosen.
+std::vector<float> lightSelectionWeights(const Scene& scene, const std::vector<Light>& lights,
+                                         const std::vector<EmitterDesc>& emitters, LightSelection rule) {
+    const size_t n = lights.size();
+    std::vector<double> power(n, 0.0);
+    double powerSum = 0.0, lit = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        const Light& l = lights[i];
+        // (area emitters not attached to any shape, which the loader should not produce: power 0)
+        const float p = l.type == LightType::Area && l.area <= 0.f ? 0.f : l.power(scene);
+        power[i] = p > 0.f && std::isfinite(p) ? double(p) : 0.0;  // (NaN power: not chosen)
+        powerSum += power[i];
+        lit += power[i] > 0.0 ? 1.0 : 0.0;
+    }
+    std::vector<float> weight(n, 0.f);
+    bool any = false;
+    for (size_t i = 0; i < n; ++i) {
+        if (!(power[i] > 0.0)) continue;
+        double w = 1.0;
+        if (rule == LightSelection::Power) w = power[i] / powerSum;
+        else if (rule == LightSelection::Mixture) w = 0.5 * power[i] / powerSum + 0.5 / lit;
+        weight[i] = float(w * double(emitters[i].samplingWeight));
+        any = any || weight[i] > 0.f;
+    }
+    // No light with both power and weight (every light black): the weights alone, so that a
+    // light of weight 0 is still never chosen.
+    if (!any)
+        for (size_t i = 0; i < n; ++i) weight[i] = emitters[i].samplingWeight;
+    return weight;
+}
+
+}  // namespace
+
 Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     // One environment (a ray leaving the scene sees one light: the walks' vertex at infinity), as
     // Mitsuba 3 ("Only one environment emitter can be specified per scene"). Checked before any
@@ -133,6 +174,15 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     for (const EmitterDesc& e : desc_.emitters)
         if (e.type == EmitterType::Envmap && !e.envmap)
             throw std::invalid_argument("an envmap emitter without its map (" + e.source + ")");
+    // sampling_weight (the loader checks each): the choice between lights needs one above 0, as
+    // Mitsuba's emitter distribution does.
+    for (const EmitterDesc& e : desc_.emitters)
+        if (!(std::isfinite(e.samplingWeight) && e.samplingWeight >= 0.f))
+            throw std::invalid_argument("sampling_weight must be finite and >= 0 (" + e.source + ")");
+    if (!desc_.emitters.empty() && std::all_of(desc_.emitters.begin(), desc_.emitters.end(),
+                                               [](const EmitterDesc& e) { return e.samplingWeight == 0.f; }))
+        throw std::invalid_argument("every emitter has sampling_weight 0: no light can be chosen (" +
+                                    desc_.emitters[0].source + ", ...)");
     device_ = rtcNewDevice("");
     if (!device_) throw std::runtime_error("could not create the Embree device");
     rtcSetDeviceErrorFunction(device_, embreeError, nullptr);
@@ -367,10 +417,7 @@ Scene::Scene(const SceneDesc& desc) : desc_(desc) {
     for (EmitterBound& b : emitterBounds_) b.radius = b.radius * (1.f + 1e-3f) + 1e-5f * extent;
     manyEmitters_ = emitterBounds_.size() > kMaxEmitterBounds;
     if (manyEmitters_) emitterBounds_.clear();
-    // Drop area emitters not attached to any shape (the loader should not produce them).
-    std::vector<float> power;
-    for (const Light& l : lights_) power.push_back(l.type == LightType::Area && l.area <= 0.f ? 0.f : l.power(*this));
-    lightDist_ = Distribution1D(power);
+    lightDist_ = Distribution1D(lightSelectionWeights(*this, lights_, desc_.emitters, desc_.lightSelection));
     for (const Light& l : lights_)
         if (l.isEnvironment()) envLights_.push_back(&l);  // (at most one: checked above)
     // Materials and emitters per Embree geometry (lights_ no longer changes: pointers are stable).
@@ -424,9 +471,19 @@ Scene::~Scene() {
     if (device_) rtcReleaseDevice(device_);
 }
 
+// The probability with which a light sample picks l, as the emitter-hit technique's MIS reads it.
+// A light the distribution never picks (sampling_weight 0) reads kUnchosenSelection instead of 0:
+// the MIS sums count a stored density of 0 as 1 (an entry a walk could not fill:
+// integrators/transport/path_inline.h, remapDensity), which would weight the emitter hit, this
+// light's only technique, below 1. With a positive stand-in the light techniques' share is of order
+// (1e-12 pdf_light / pdf_bsdf)^2 (next-event estimation's term; the light walks' carry the same
+// factor), below 1e-12 of the image for any density ratio below 1e6. Nothing samples with it.
+constexpr float kUnchosenSelection = 1e-12f;
+
 float Scene::lightSelectionProb(const Light* l) const {
     if (lights_.empty()) return 0.f;
-    return lightDist_.probability(size_t(l - lights_.data()));
+    const float p = lightDist_.probability(size_t(l - lights_.data()));
+    return p > 0.f ? p : kUnchosenSelection;
 }
 
 // Fills an Embree ray with whole 16-byte stores: Embree loads (org, tnear) and (dir, time) as

@@ -97,6 +97,9 @@ struct EmitterDesc {
     // also read toWorld (a rotation and translation), the projector scale and its horizontal fov.
     TexturePtr texture;
     float fovXDeg = 0.f;     // projector
+    // Mitsuba's sampling_weight (>= 0): scales the light's chance of being chosen among the
+    // scene's lights (core/scene.cpp, lightSelectionWeights); 0: never chosen by a light sample.
+    float samplingWeight = 1.f;
     std::string source;      // "file:line" for messages
 };
 
@@ -180,6 +183,12 @@ struct IntegratorDesc {
     double guidingBsdfFraction = 0.5;    // in (0, 1]; < 0: learned
 };
 
+// How a light sample chooses among the scene's lights (core/scene.cpp, lightSelectionWeights), each
+// rule times the lights' sampling_weight: Uniform (Mitsuba 3's), in proportion to Power, or a
+// Mixture of the two halves. The render tools take the integrator's (lightSelectionFor,
+// integrators/integrator.h); BENCHMARKS.md, "Light selection", has the measurements.
+enum class LightSelection { Uniform, Power, Mixture };
+
 struct SceneDesc {
     std::string path;                  // the scene file
     std::vector<BxdfPtr> bsdfs;
@@ -190,6 +199,7 @@ struct SceneDesc {
     std::vector<InstanceDesc> instances;
     int groupCount = 0;                // shapegroups (the group fields above index them)
     std::vector<EmitterDesc> emitters;
+    LightSelection lightSelection = LightSelection::Uniform;
     CameraDesc camera;
     IntegratorDesc integrator;
     int sampleCount = 4;

@@ -39,6 +39,7 @@ struct RenderSettings {
     // PT only: "mis" (NEE and emitter hits, power heuristic), "nee" (emitter hits only where NEE
     // cannot connect: seen from the camera or after a delta lobe), "bsdf" (emitter hits only).
     std::string ptStrategy = "mis";
+    std::string lightSelection = "auto";  // --light-selection: auto (lightSelectionFor), uniform, power, mix
     // VCM / PPM: initial merge radius (<= 0: 0.003 x the geometry's bounding radius, as SmallVCM)
     // and the radius reduction exponent: r_i = r_0 i^((alpha - 1) / 2).
     float radius = -1.f;
@@ -117,6 +118,13 @@ double regTauDefault(const std::string& integrator);
 // last vertex; with the roulette from the first bounce it needed 2-20% more rays for the same
 // error on SmallVCM's five boxes, docs/smallvcm-comparison.md).
 int rrDepthOf(const RenderSettings& s);
+// How light samples choose among the lights for `integrator` (core/scene_desc.h): uniformly (as
+// Mitsuba 3) for the path tracer, the mixture of uniform and power for the bidirectional ones,
+// whose light walks start where the power is. Each wins or nearly ties at equal time on the scenes
+// of BENCHMARKS.md, "Light selection" (PT: uniform against power up to 86x on a spot beside an
+// environment; BPT, VCM, LT: the mixture within 1.1-1.8x of the best rule on every scene, either
+// pure rule up to 2.7x and 53x off).
+LightSelection lightSelectionFor(const std::string& integrator);
 // The longest subpath in surface vertices after its endpoint: max_depth (unset: as many as a
 // path record holds).
 inline int maxDepthOf(const RenderSettings& s) {

@@ -29,6 +29,10 @@ int rrDepthOf(const RenderSettings& s) {
     return s.integrator == "pt" ? 5 : 1;
 }
 
+LightSelection lightSelectionFor(const std::string& integrator) {
+    return integrator == "pt" ? LightSelection::Uniform : LightSelection::Mixture;
+}
+
 std::string supportedIntegrators() { return "pt, bpt, vcm, lt, ppm"; }
 
 std::string integratorForSceneType(const std::string& t) {

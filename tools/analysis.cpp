@@ -257,6 +257,17 @@ std::vector<RunConfig> gatherConfigs(const std::vector<std::string>& specs, cons
     return out;
 }
 
+const Scene& ScenesByIntegrator::operator()(const std::string& integrator) {
+    const LightSelection rule = lightSelectionFor(integrator);
+    std::unique_ptr<Scene>& s = scenes_[rule];
+    if (!s) {
+        SceneDesc d = desc_;
+        d.lightSelection = rule;
+        s = std::make_unique<Scene>(d);
+    }
+    return *s;
+}
+
 RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& c, int threads, uint64_t seed) {
     RenderSettings s;
     s.integrator = c.integrator;

@@ -5,6 +5,7 @@
 #pragma once
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -64,6 +65,18 @@ std::vector<RunConfig> gatherConfigs(const std::vector<std::string>& specs, cons
 
 // Settings from the scene (max depth, rr depth, hide emitters, radius) overridden by the config.
 RenderSettings makeSettings(const SceneDesc& desc, const RunConfig& cfg, int threads, uint64_t seed);
+
+// The scene as `render` builds it for an integrator (its light selection: lightSelectionFor), built
+// once per selection rule and kept: the tools that run several integrators on one scene.
+class ScenesByIntegrator {
+public:
+    explicit ScenesByIntegrator(const SceneDesc& desc) : desc_(desc) {}
+    const Scene& operator()(const std::string& integrator);
+
+private:
+    const SceneDesc& desc_;
+    std::map<LightSelection, std::unique_ptr<Scene>> scenes_;
+};
 // Names that makeIntegrator accepts (split from supportedIntegrators()).
 std::vector<std::string> availableIntegrators();
 bool integratorAvailable(const std::string& name);

@@ -74,7 +74,7 @@ std::string machine(int threads) {
 // light-tracing splats is missed at fewer samples. Empty where there are none. An unregularised
 // reference lacks those paths: the bench reports the error outside them beside the whole image's,
 // for every configuration alike.
-std::vector<bool> singularMask(const Scene& scene, const SceneDesc& desc, const std::vector<RunConfig>& configs,
+std::vector<bool> singularMask(ScenesByIntegrator& sceneFor, const SceneDesc& desc, const std::vector<RunConfig>& configs,
                                int threads, const fs::path& dir) {
     std::vector<bool> mask;
     fs::remove_all(dir);  // (singular.exr of an earlier run)
@@ -85,7 +85,7 @@ std::vector<bool> singularMask(const Scene& scene, const SceneDesc& desc, const 
         s.timeLimit = 0.0;
         s.strategyImages = (dir / slug(cfg.label)).string();
         RenderStats st;
-        const Image img = renderImage(scene, s, st);
+        const Image img = renderImage(sceneFor(cfg.integrator), s, st);
         const fs::path part = dir / slug(cfg.label) / "singular.exr";
         if (!fs::exists(part)) continue;
         const Image sing = readImage(part.string());
@@ -254,10 +254,10 @@ int main(int argc, char** argv) {
             ++failures;
             continue;
         }
-        Scene scene(desc);
+        ScenesByIntegrator sceneFor(desc);  // (each integrator's light selection, as render)
         std::vector<bool> singular;
         try {
-            singular = singularMask(scene, desc, configs, threads, fs::path(outDir) / stem / "singular-mask");
+            singular = singularMask(sceneFor, desc, configs, threads, fs::path(outDir) / stem / "singular-mask");
         } catch (const std::exception& e) {
             body += fmt::format("Singular mask failed: {}\n\n", e.what());
             ++failures;
@@ -278,7 +278,7 @@ int main(int argc, char** argv) {
                 s.spp = fixedSpp;  // (0: until the time limit)
                 s.timeLimit = fixedSpp > 0 ? 0.0 : seconds;
                 RenderStats st;
-                Image img = renderImage(scene, s, st);
+                Image img = renderImage(sceneFor(cfg.integrator), s, st);
                 ErrorMetrics m = computeMetrics(img, refImg);
                 fs::path o = fs::path(outDir) / stem / (slug(integ) + ".exr");
                 fs::create_directories(o.parent_path());

@@ -181,7 +181,7 @@ int main(int argc, char** argv) {
     };
     std::vector<SweepRow> sweepRows;
     try {
-        Scene scene(desc);
+        ScenesByIntegrator sceneFor(desc);  // (each integrator's light selection, as render)
         for (size_t ci = 0; ci < configs.size(); ++ci) {
             const RunConfig& cfg = configs[ci];
             std::vector<Level> levels;
@@ -201,7 +201,7 @@ int main(int argc, char** argv) {
                     ++next;
                 };
                 RenderStats stats;
-                renderImage(scene, s, stats, cb);
+                renderImage(sceneFor(cfg.integrator), s, stats, cb);
             }
             nlohmann::json jc;
             jc["label"] = cfg.label;

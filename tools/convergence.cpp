@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
     }
 
     try {
-        Scene scene(desc);
+        ScenesByIntegrator sceneFor(desc);  // (each integrator's light selection, as render)
         for (const RunConfig& cfg : configs) {
             RenderSettings s = makeSettings(desc, cfg, threads, seed);
             s.spp = spp;
@@ -131,7 +131,7 @@ int main(int argc, char** argv) {
             };
             fmt::print(stderr, "convergence: {} ...\n", cfg.label);
             RenderStats stats;
-            Image img = renderImage(scene, s, stats, cb);
+            Image img = renderImage(sceneFor(cfg.integrator), s, stats, cb);
             record(stats.spp, stats.seconds, img);
             if (!r.empty()) r.back().seconds = stats.seconds;
 

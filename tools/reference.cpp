@@ -112,7 +112,11 @@ int main(int argc, char** argv) {
                 imgs.push_back(readImage(cimg.string()));
                 fmt::print(stderr, "reference: chunk {}/{} reused\n", i + 1, chunks);
             } else {
-                if (!scene) scene = std::make_unique<Scene>(desc);
+                if (!scene) {  // (the integrator's light selection, as render)
+                    SceneDesc d = desc;
+                    d.lightSelection = lightSelectionFor(cfg.integrator);
+                    scene = std::make_unique<Scene>(d);
+                }
                 RenderSettings rs = makeSettings(desc, cfg, threads, s);
                 rs.spp = n;
                 rs.timeLimit = spp > 0 ? 0.0 : timeTotal / chunks;

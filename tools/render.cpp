@@ -98,10 +98,10 @@ std::string checkpointKeyOf(const std::string& scenePath, const std::map<std::st
                             const RenderSettings& s) {
     const std::string settings =
         fmt::format("integrator {}\nseed {}\nmax_depth {}\nrr_depth {}\nhide_emitters {}\npt_strategy {}\nradius {}\n"
-                    "radius_alpha {}\nregulariser {}\nguiding {} {} {} {} {}\n",
+                    "radius_alpha {}\nregulariser {}\nguiding {} {} {} {} {}\nlight_selection {}\n",
                     s.integrator, s.seed, s.maxDepth, s.rrDepth, s.hideEmitters, s.ptStrategy, s.radius,
                     s.radiusAlpha, regularizerSettings(s, true).dump(), s.guiding, s.guidingBsdfFraction,
-                    s.guidingCombine, s.guidingSpatialThreshold, s.guidingMaxMb);
+                    s.guidingCombine, s.guidingSpatialThreshold, s.guidingMaxMb, s.lightSelection);
     return analysis::sha256Hex(analysis::hashScene(scenePath, defines).sha256 + "\n" + settings);
 }
 
@@ -192,6 +192,11 @@ int main(int argc, char** argv) {
     app.add_option("-o,--output", output, "Output image (.exr or .pfm); a .png is written beside it. "
                                           "Default: out/<scene name>.exr");
     app.add_option("--integrator", integrator, "Integrator, overrides the scene's: " + supportedIntegrators());
+    std::string lightSelection = "auto";
+    app.add_option("--light-selection", lightSelection,
+                   "How light samples choose a light (times each emitter's sampling_weight): auto (uniform for pt, "
+                   "mix for the others), uniform (Mitsuba's), power, mix (half each)")
+        ->check(CLI::IsMember({"auto", "uniform", "power", "mix"}));
     auto* sppOpt = app.add_option("--spp", spp, "Samples per pixel (overrides the scene's sample_count)")
                        ->check(lt::cli::positive());
     app.add_option("--time", timeLimit, "Render for this many seconds instead of a fixed spp")
@@ -397,6 +402,11 @@ int main(int argc, char** argv) {
     settings.hideEmitters = desc.integrator.hideEmitters;
     settings.quiet = quiet;
     settings.ptStrategy = ptStrategy;
+    settings.lightSelection = lightSelection;
+    desc.lightSelection = lightSelection == "auto"      ? lightSelectionFor(settings.integrator)
+                          : lightSelection == "uniform" ? LightSelection::Uniform
+                          : lightSelection == "power"   ? LightSelection::Power
+                                                        : LightSelection::Mixture;
     settings.radius = radius > 0.f ? radius : desc.integrator.radius;
     settings.radiusAlpha = radiusAlpha > 0.f ? radiusAlpha : desc.integrator.radiusAlpha;
     settings.strategyImages = strategyImages;
