@@ -482,14 +482,14 @@ namespace {
 
 // A light-path store of `count` light subpaths (at most 5 segments), with fixed seeds, Russian
 // roulette from the first bounce (rrDepth 1: the fast merge forms' case, path.h).
-LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream) {
+LightPathStore lightPaths(const Scene& scene, int count, uint64_t stream, int rrDepth = 1) {
     WalkStats ws;
     LightPathStore store;
     store.begin(size_t(count), true);
     for (uint64_t j = 0; j < uint64_t(count); ++j) {
         Rng rng(j, stream);
         LightPathStore::Chunk& chunk = store.chunk(j / LightPathStore::kChunkPaths);
-        chunk.commit(lightWalk(scene, reg::kNone, rng, 6, 1, chunk.next(), ws));
+        chunk.commit(lightWalk(scene, reg::kNone, rng, 6, rrDepth, chunk.next(), ws));
     }
     return store;
 }
@@ -536,6 +536,62 @@ TEST_CASE("MIS: the fast merge weights (per-light-vertex partial sums) equal the
     }
     CHECK(merges > 500);
     CHECK(deepMerges > 200);
+}
+
+// With rr_depth above 1 merges gather their densities (the fast forms assume 1: path.h), and the
+// light side's reverse densities get the roulette's factor by the merged path's length. Against the
+// from-scratch densities of the merged path x = y[0..i-1], z[t-1..0]: every entry the gathers give
+// that does not involve the merge vertex (its own and its neighbours' are evaluated at the photon,
+// a radius away from z[t-1]).
+TEST_CASE("MIS: gathered merge densities equal a from-scratch evaluation with rr_depth above 1", "[vcm][mis]") {
+    Scene scene(boxWithMirrorSphere());
+    WalkStats ws;
+    MisConfig cfg{TechniqueSet::Bidirectional, true, kPi * 0.05f * 0.05f, 256.f};
+    std::array<PathVertex, kMaxPathVertices> z;
+    // (with rr_depth 2 every entry compared carries the factor: the merged paths are too short
+    // for one without it away from the merge vertex)
+    for (int rrDepth : {3, 4}) {
+        LightPathStore store = lightPaths(scene, 256, 77, rrDepth);
+        HashGrid grid;
+        grid.build(store, 0.05f, cfg);
+        int checked = 0, withFactor = 0;
+        for (uint64_t i = 0; i < 2000; ++i) {
+            Rng rng(i, 79);
+            int nz = cameraWalk(scene, reg::kNone, Vec2(rng.uniform() * 8, rng.uniform() * 8), rng, 6, rrDepth, z.data(), ws);
+            for (int t = 2; t <= nz; ++t) {
+                if (!z[t - 1].connectible() || z[t - 1].infinite) continue;
+                grid.query(z[t - 1].p, [&](const Photon& ph) {
+                    Connection c;
+                    const PathVertex* y = store.path(ph.path);
+                    if (!merge(reg::kNone, ph, y, store.pdfs(ph.path), z.data(), t, rrDepth, c)) return;
+                    const int m = ph.depth;
+                    std::vector<PathVertex> x(y, y + m);
+                    for (int j = t - 1; j >= 0; --j) x.push_back(z[j]);
+                    const PathPdfs bf = bruteForcePdfs(scene, x, rrDepth);
+                    REQUIRE(c.pdfs.n == bf.n);
+                    INFO("rr depth " << rrDepth << " photon depth " << m << " t " << t);
+                    // light side: fromCamera of x_k, sampled at x_{k+1} from x_{k+2} (which is y[m],
+                    // the photon, not z[t-1], for k = m - 2: the merge's approximation)
+                    for (int k = 0; k + 3 <= m; ++k)
+                        if (c.pdfs.fromCamera[k] != 0.f && bf.fromCamera[k] != 0.f) {
+                            CHECK(c.pdfs.fromCamera[k] == Approx(bf.fromCamera[k]).epsilon(2e-3));
+                            ++checked;
+                            withFactor += bf.n - 2 - k >= rrDepth;
+                        }
+                    for (int k = m + 2; k < bf.n; ++k)  // camera side: fromLight sampled from x_{k-1}
+                        if (c.pdfs.fromLight[k] != 0.f && bf.fromLight[k] != 0.f) {
+                            CHECK(c.pdfs.fromLight[k] == Approx(bf.fromLight[k]).epsilon(2e-3));
+                            ++checked;
+                            withFactor += k - 1 >= rrDepth;
+                        }
+                });
+            }
+        }
+        INFO("rr depth " << rrDepth << ": " << checked << " densities, " << withFactor << " with the roulette's factor");
+        CHECK(checked > 500);
+        CHECK(withFactor > 100);
+        CHECK(checked - withFactor > 100);
+    }
 }
 
 // The grid query (hashed cells, compact positions, staged prefetching) finds exactly the light
