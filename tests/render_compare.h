@@ -1,7 +1,10 @@
 // Render-comparison helpers shared by the integrator tests: a scene rendered quietly, the image
 // mean, and K renders' block means compared by Welch's t (Sidak over the blocks).
 #pragma once
+#include <catch2/catch.hpp>
 #include <algorithm>
+#include <initializer_list>
+#include <string>
 #include <vector>
 #include "integrators/integrator.h"
 #include "stats.h"
@@ -51,6 +54,30 @@ inline int differingBlocks(const std::vector<SampleStats>& a, const std::vector<
     }
     if (worst) *worst = w;
     return bad;
+}
+
+// The agreement test of the integrator suites: PT's K renders in blocks x blocks block means (s as
+// given: spp, max depth), and each of `others` ("bpt", "lt", "vcm") against them by Welch's t, no
+// block differing at family-wise significance alpha per integrator (Sidak over the blocks). LT
+// takes twice the samples (its image is noisier); VCM a vanishing radius, so that its merges carry
+// ~no weight and its other techniques are tested. Returns PT's statistics (for a test's own check
+// that a broken variant does differ).
+inline std::vector<SampleStats> checkAgreesWithPt(const SceneDesc& d, RenderSettings s,
+                                                  std::initializer_list<const char*> others, int k = 10,
+                                                  int blocks = 4, double alpha = 0.01) {
+    s.integrator = "pt";
+    const auto pt = blockStats(d, s, k, blocks);
+    for (const std::string integ : others) {
+        RenderSettings si = s;
+        si.integrator = integ;
+        if (integ == "lt") si.spp = 2 * s.spp;
+        if (integ == "vcm") si.radius = 1e-6f;
+        double worst = 0.0;
+        const int bad = differingBlocks(pt, blockStats(d, si, k, blocks), alpha, &worst);
+        INFO(integ << " vs pt: " << bad << " blocks differ, worst |t|/crit " << worst);
+        CHECK(bad == 0);
+    }
+    return pt;
 }
 
 }  // namespace lt::test

@@ -212,16 +212,7 @@ TEST_CASE("a curve under an area light: PT and BPT and VCM agree", "[curves][bpt
     RenderSettings s;
     s.spp = 4;
     s.maxDepth = 4;
-    s.integrator = "pt";
-    const auto pt = blockStats(d, s, 10, 4);
-    for (std::string integ : {"bpt", "vcm"}) {
-        s.integrator = integ;
-        if (integ == "vcm") s.radius = 1e-6f;  // merges of ~no weight: VCM's other techniques
-        double worst;
-        const int bad = differingBlocks(pt, blockStats(d, s, 10, 4), 0.01, &worst);
-        INFO(integ << " vs pt: " << bad << " blocks differ, worst |t|/crit " << worst);
-        CHECK(bad == 0);
-    }
+    const auto pt = checkAgreesWithPt(d, s, {"bpt", "vcm"});
     // Power: without the arc the image differs from PT's.
     SceneDesc without = d;
     without.curves.erase(without.curves.begin());

@@ -261,17 +261,7 @@ TEST_CASE("PT and BPT and LT and VCM agree on a normal-mapped diffuse scene", "[
     RenderSettings s;
     s.spp = 4;
     s.maxDepth = 4;
-    s.integrator = "pt";
-    const auto pt = blockStats(d, s, 10, 4);
-    for (std::string integ : {"bpt", "lt", "vcm"}) {
-        s.integrator = integ;
-        s.spp = integ == "lt" ? 8 : 4;
-        s.radius = integ == "vcm" ? 1e-6f : 0.f;  // merges of ~no weight: VCM's other techniques
-        double worst;
-        const int bad = differingBlocks(pt, blockStats(d, s, 10, 4), 0.01, &worst);
-        INFO(integ << " vs pt: " << bad << " blocks differ, worst |t|/crit " << worst);
-        CHECK(bad == 0);
-    }
+    const auto pt = checkAgreesWithPt(d, s, {"bpt", "lt", "vcm"});
     // Power: light tracing without the shading-normal adjoint correction (which the perturbed
     // normals make matter on every wall) differs from PT.
     s.integrator = "lt";

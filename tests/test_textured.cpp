@@ -123,17 +123,7 @@ TEST_CASE("PT and BPT and LT and VCM agree on a textured scene", "[texture][bpt]
     RenderSettings s;
     s.spp = 4;
     s.maxDepth = 4;
-    s.integrator = "pt";
-    const auto pt = blockStats(d, s, 10, 4);
-    for (std::string integ : {"bpt", "lt", "vcm"}) {
-        s.integrator = integ;
-        s.spp = integ == "lt" ? 8 : 4;
-        if (integ == "vcm") s.radius = 1e-6f;  // merges of ~no weight: VCM's other techniques
-        double worst;
-        const int bad = differingBlocks(pt, blockStats(d, s, 10, 4), 0.01, &worst);
-        INFO(integ << " vs pt: " << bad << " blocks differ, worst |t|/crit " << worst);
-        CHECK(bad == 0);
-    }
+    const auto pt = checkAgreesWithPt(d, s, {"bpt", "lt", "vcm"});
     // Power: the same scene with the stripes' mean instead of the texture differs from PT.
     SceneDesc flat = d;
     flat.bsdfs[size_t(tex)] = makeDiffuse(StripeTexture().meanValue());

@@ -503,16 +503,7 @@ TEST_CASE("PT and BPT and VCM agree on a textured roughness", "[texture][bpt][st
     RenderSettings s;
     s.spp = 4;
     s.maxDepth = 4;
-    s.integrator = "pt";
-    const auto pt = blockStats(d, s, 10, 4);
-    for (std::string integ : {"bpt", "vcm"}) {
-        s.integrator = integ;
-        if (integ == "vcm") s.radius = 1e-6f;  // merges of ~no weight: VCM's other techniques
-        double worst;
-        const int bad = differingBlocks(pt, blockStats(d, s, 10, 4), 0.01, &worst);
-        INFO(integ << " vs pt: " << bad << " blocks differ, worst |t|/crit " << worst);
-        CHECK(bad == 0);
-    }
+    const auto pt = checkAgreesWithPt(d, s, {"bpt", "vcm"});
     SceneDesc flat = d;
     flat.bsdfs[size_t(tex)] = makeRoughConductor(MicrofacetType::GGX, 0.205f, 0.205f, Color(0.2f, 0.6f, 1.2f),
                                                  Color(3.f, 2.6f, 2.2f), Color(1.f));
