@@ -647,8 +647,9 @@ bool Scene::intersectImpl(const Ray& ray, Hit& hit) const {
 }
 
 // The surface's dp/du and dp/dv as Mitsuba 3 computes them (meshes: from the triangle's uv
-// differences, Frame(ng)'s tangents where it has no uv or they are degenerate; spheres: the
-// analytic parameterisation u = phi / 2 pi, v = theta / pi), the unperturbed frame from them
+// differences, Frame(ng)'s tangents where it has no uv or they are degenerate; spheres and
+// cylinders: their analytic parameterisations, u = phi / 2 pi and v = theta / pi or the height;
+// curves: Frame(ng)'s), the unperturbed frame from them
 // (tangentFrame), and the material's perturbation of it (bsdf/normal_perturbation.h).
 Frame Scene::perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b2, const Ray& ray,
                             const InstanceXf* ix, const Vec3& p, const Vec3& ng, const Vec3& n) const {
@@ -687,6 +688,23 @@ Frame Scene::perturbedFrame(const GeomInfo& gi, unsigned prim, float b1, float b
         ts.dpdu = toSphereWorld * ((2.f * kPi * s.radius) * Vec3(-l.y, l.x, 0.f));
         ts.dpdv = toSphereWorld * (rd > 0.f ? (kPi * s.radius) * Vec3(l.z * l.x / rd, l.z * l.y / rd, -rd)
                                             : Vec3(kPi * s.radius, 0.f, 0.f));
+        ok = isFinite(ts.dpdu) && isFinite(ts.dpdv);
+    } else if (gi.cylinder >= 0) {
+        // (Mitsuba's cylinder: dp/du = 2 pi (-y, x, 0) and dp/dv = (0, 0, 1) at the object-space
+        // point of the unit cylinder, to the world by the shape's linear part; core/cylinder.h)
+        const CylinderGeom& c = cylinders_[size_t(gi.cylinder)];
+        const Vec3 po = ix ? Vec3(ix->toObject * glm::vec4(p, 1.f)) : p;
+        double l[3];
+        for (int r = 0; r < 3; ++r)
+            l[r] = c.toObject[r][0] * po.x + c.toObject[r][1] * po.y + c.toObject[r][2] * po.z + c.toObject[r][3];
+        const double du[3] = {-2.0 * double(kPi) * l[1], 2.0 * double(kPi) * l[0], 0.0};
+        for (int r = 0; r < 3; ++r) {
+            ts.dpdu[r] = float(c.toWorld[r][0] * du[0] + c.toWorld[r][1] * du[1]);
+            ts.dpdv[r] = float(c.toWorld[r][2]);
+        }
+        double phi = std::atan2(l[1], l[0]);
+        if (phi < 0.0) phi += 2.0 * double(kPi);
+        ts.uv = Vec2(float(phi / (2.0 * double(kPi))), float(l[2]));
         ok = isFinite(ts.dpdu) && isFinite(ts.dpdv);
     }
     if (ok && ix) {  // (the group's space to the world: tangents map by the linear part)

@@ -162,17 +162,7 @@ TEST_CASE("a cylinder area light: PT and BPT and LT and VCM agree", "[shapes][cy
     RenderSettings s;
     s.spp = 4;
     s.maxDepth = 4;
-    s.integrator = "pt";
-    const auto pt = blockStats(d, s, 10, 4);
-    for (std::string integ : {"bpt", "lt", "vcm"}) {
-        s.integrator = integ;
-        s.spp = integ == "lt" ? 8 : 4;
-        if (integ == "vcm") s.radius = 1e-6f;  // merges of ~no weight: VCM's other techniques
-        double worst;
-        const int bad = differingBlocks(pt, blockStats(d, s, 10, 4), 0.01, &worst);
-        INFO(integ << " vs pt: " << bad << " blocks differ, worst |t|/crit " << worst);
-        CHECK(bad == 0);
-    }
+    const auto pt = checkAgreesWithPt(d, s, {"bpt", "lt", "vcm"});
     // Power: the light 20% brighter differs from PT.
     SceneDesc brighter = d;
     brighter.emitters[0].value = Color(3.6f);
@@ -185,15 +175,15 @@ namespace {
 
 // Shapes of every analytic and mesh kind, in a group instanced twice, and the same written out
 // flat (each shape's transform followed by its instance's: the XML composes left to right). The
-// rectangle and the rotated sphere are anisotropic: their hits take the dp/du frame, which an
-// instance must map to the world as the flat shape's.
+// rectangle, the rotated sphere and the cylinder are anisotropic: their hits take the dp/du frame,
+// which an instance must map to the world as the flat shape's.
 const char* kGroupShapes[] = {
     R"(<shape type="rectangle"><transform name="to_world"><scale value="0.8"/><rotate y="1" angle="-70"/>%T</transform>
         <bsdf type="roughconductor"><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.3"/></bsdf></shape>)",
     R"(<shape type="sphere"><transform name="to_world"><scale value="0.4"/><rotate x="1" angle="30"/><translate x="-0.8"/>%T</transform>
         <bsdf type="roughconductor"><float name="alpha_u" value="0.3"/><float name="alpha_v" value="0.05"/></bsdf></shape>)",
     R"(<shape type="cylinder"><float name="radius" value="0.3"/><transform name="to_world"><translate y="0.5"/>%T</transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.2 0.5 0.8"/></bsdf></shape>)",
+        <bsdf type="roughconductor"><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.3"/></bsdf></shape>)",
     R"(<shape type="cube"><transform name="to_world"><scale value="0.2"/><translate x="0.7" z="0.5"/>%T</transform>
         <bsdf type="diffuse"><rgb name="reflectance" value="0.3 0.8 0.3"/></bsdf></shape>)"};
 const char* kInstanceTransforms[] = {R"(<rotate y="1" angle="45"/><scale value="1.5"/><translate z="2"/>)",
@@ -275,6 +265,39 @@ TEST_CASE("instancing: a shapegroup's instances are the same geometry as the sha
         const int bad = differingBlocks(blockStats(inst, s, 6, 4), blockStats(flat, s, 6, 4), 0.01, &worst);
         INFO(integ << ": " << bad << " blocks differ, worst |t|/crit " << worst);
         CHECK(bad == 0);
+    }
+}
+
+// An anisotropic material on a cylinder orients its lobe by Mitsuba's dp/du: the tangent of the
+// circle about the axis (u = phi / 2 pi), for a tilted cylinder too. Rays from all around hit it.
+TEST_CASE("cylinder: hits on an anisotropic cylinder take the circle's tangent as dp/du", "[shapes][cylinder]") {
+    for (const bool tilted : {false, true}) {
+        const std::string xf = tilted ? R"(<rotate x="1" angle="40"/><rotate z="1" angle="25"/>)" : "";
+        const std::string xml = R"(<scene version="3.0.0">
+    <shape type="cylinder"><float name="radius" value="0.5"/><point name="p0" x="0" y="0" z="-1"/>
+        <point name="p1" x="0" y="0" z="1"/><transform name="to_world">)" + xf + R"(</transform>
+        <bsdf type="roughconductor"><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.3"/></bsdf></shape>
+    </scene>)";
+        const Scene scene(loadScene(writeTemp(tilted ? "cyl-tilted.xml" : "cyl.xml", xml), {}));
+        const Vec3 axis = tilted ? glm::normalize(Vec3(glm::rotate(glm::mat4(1.f), glm::radians(25.f), Vec3(0, 0, 1)) *
+                                                       glm::rotate(glm::mat4(1.f), glm::radians(40.f), Vec3(1, 0, 0)) *
+                                                       glm::vec4(0, 0, 1, 0)))
+                                 : Vec3(0, 0, 1);
+        int hits = 0;
+        for (int k = 0; k < 64; ++k) {
+            const float a = 2.f * kPi * (k + 0.5f) / 64.f;
+            const Vec3 side = glm::normalize(glm::cross(axis, Vec3(std::cos(a), std::sin(a), 0.3f)));
+            const Vec3 o = 3.f * side + 0.2f * float(k % 5 - 2) * axis;
+            SurfaceHit h;
+            if (!scene.intersect(Ray{o, -side}, h)) continue;
+            ++hits;
+            INFO("tilted " << tilted << " ray " << k);
+            // s: unit, perpendicular to the axis and to the normal, turning as phi grows (+z right-handed)
+            CHECK(std::abs(glm::dot(h.shading.s, axis)) < 1e-4f);
+            CHECK(std::abs(glm::dot(h.shading.s, h.shading.n)) < 1e-4f);
+            CHECK(glm::dot(h.shading.s, glm::cross(axis, h.ng)) > 0.999f);
+        }
+        CHECK(hits == 64);
     }
 }
 
