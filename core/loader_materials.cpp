@@ -6,8 +6,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <functional>
 #include "bsdf/ior.h"
 #include "bsdf/normal_perturbation.h"
+#include "bsdf/principled.h"
 #include "core/image.h"
 #include "core/loader.h"
 #include "core/texture/texture_factory.h"
@@ -65,7 +67,7 @@ namespace {
 const std::vector<std::string> kBsdfTypes = {"diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric",
                                              "plastic", "roughplastic", "twosided", "normalmap", "bumpmap",
                                              "thindielectric", "null", "polarizer", "pplastic", "blendbsdf", "mask",
-                                             "roughdiffuse"};
+                                             "roughdiffuse", "principled", "principledthin"};
 
 // Refuses the textures a plugin has no use for (yet), naming the parameters that take one.
 void noTexturesBut(const Props& p, const std::map<std::string, const Elem*>& textures,
@@ -133,6 +135,12 @@ std::vector<std::string> texturableParams(const std::string& t) {
     if (t == "roughconductor") return {"alpha", "alpha_u", "alpha_v", "eta", "k", "specular_reflectance"};
     if (t == "dielectric") return {"specular_reflectance", "specular_transmittance"};
     if (t == "roughdielectric") return {"alpha", "alpha_u", "alpha_v", "specular_reflectance", "specular_transmittance"};
+    if (t == "principled")
+        return {"base_color", "roughness", "anisotropic", "metallic", "spec_trans", "spec_tint",
+                "sheen",      "sheen_tint", "flatness", "clearcoat", "clearcoat_gloss"};
+    if (t == "principledthin")
+        return {"base_color", "roughness", "anisotropic", "spec_trans", "spec_tint",
+                "sheen",      "sheen_tint", "flatness", "diff_trans", "eta"};
     return {};
 }
 
@@ -153,6 +161,116 @@ TexturePtr Materials::paramTexture(const std::map<std::string, const Elem*>& tex
                                            it->first, lo.x, lo.y, lo.z));
     return tex;
 }
+
+namespace {
+
+// Mitsuba 3's principled (bsdf/principled.cpp): its parameters, names and defaults. Every
+// parameter but eta, specular and the sampling rates may be a texture (tex: the texture given
+// for a name, null for a value; scalar textures must stay in [0, 1]). The documented ranges are
+// enforced: [0, 1] for the weights and specular, eta > 0, rates >= 0; eta and specular together
+// are refused (as Mitsuba). Where spec_trans is given (and not 0), eta 1 becomes 1.001 and
+// specular 0 becomes 1e-3, as Mitsuba does (no refraction without an interface).
+BxdfPtr buildPrincipled(Props& p, const std::map<std::string, const Elem*>& textures,
+                        const std::function<TexturePtr(const std::string&)>& tex) {
+    PrincipledParams q;
+    PrincipledTextures t;
+    auto unit = [&](const char* name, float def, float& v, TexturePtr& slot) {
+        if (auto it = textures.find(name); it != textures.end()) {
+            slot = tex(name);
+            const float hi = scalarOf(slot->maxValue());
+            if (!(hi <= 1.f))
+                xml::fail(*it->second, fmt::format("the texture for '{}' reaches {}: must be in [0, 1]", name, hi));
+            return;
+        }
+        v = p.getFloat(name, def);
+        if (!(v >= 0.f && v <= 1.f)) p.failAt(name, fmt::format("must be in [0, 1] (got {})", v));
+    };
+    if (textures.count("base_color")) t.baseColor = tex("base_color");
+    else q.baseColor = nonNegColor(p, "base_color", Color(0.5f));
+    unit("roughness", 0.5f, q.roughness, t.roughness);
+    unit("anisotropic", 0.f, q.anisotropic, t.anisotropic);
+    unit("metallic", 0.f, q.metallic, t.metallic);
+    unit("spec_trans", 0.f, q.specTrans, t.specTrans);
+    unit("spec_tint", 0.f, q.specTint, t.specTint);
+    unit("sheen", 0.f, q.sheen, t.sheen);
+    unit("sheen_tint", 0.f, q.sheenTint, t.sheenTint);
+    unit("flatness", 0.f, q.flatness, t.flatness);
+    unit("clearcoat", 0.f, q.clearcoat, t.clearcoat);
+    unit("clearcoat_gloss", 0.f, q.clearcoatGloss, t.clearcoatGloss);
+    // (Mitsuba's get_flag: a lobe is on when its parameter is a texture or a non-zero value)
+    const bool hasSpecTrans = t.specTrans || q.specTrans != 0.f;
+    if (p.has("eta") && p.has("specular")) p.failAt("specular", "give either eta or specular (as in Mitsuba 3)");
+    if (p.has("eta")) {
+        q.eta = p.getFloat("eta", 1.5f);
+        if (!(q.eta > 0.f) || !std::isfinite(q.eta)) p.failAt("eta", fmt::format("must be positive (got {})", q.eta));
+        if (hasSpecTrans && q.eta == 1.f) q.eta = 1.001f;
+    } else {
+        float specular = p.getFloat("specular", 0.5f);
+        if (!(specular >= 0.f && specular <= 1.f)) p.failAt("specular", fmt::format("must be in [0, 1] (got {})", specular));
+        if (hasSpecTrans && specular == 0.f) specular = 1e-3f;
+        q.eta = 2.f / (1.f - std::sqrt(0.08f * specular)) - 1.f;
+    }
+    auto rate = [&](const char* name, float& v) {
+        v = p.getFloat(name, 1.f);
+        if (!(v >= 0.f) || !std::isfinite(v)) p.failAt(name, fmt::format("must be >= 0 and finite (got {})", v));
+    };
+    rate("diffuse_reflectance_sampling_rate", q.diffuseRate);
+    rate("main_specular_sampling_rate", q.specularRate);
+    rate("clearcoat_sampling_rate", q.clearcoatRate);
+    p.finish();
+    return makePrincipled(q, t);
+}
+
+// Mitsuba 3's principledthin (bsdf/principled_thin.cpp): principled's weights in [0, 1], diff_trans in
+// [0, 2] (Mitsuba's range), eta (1.5) positive, each a value or a texture; four sampling rates >= 0.
+BxdfPtr buildPrincipledThin(Props& p, const std::map<std::string, const Elem*>& textures,
+                            const std::function<TexturePtr(const std::string&)>& tex) {
+    PrincipledThinParams q;
+    PrincipledThinTextures t;
+    auto ranged = [&](const char* name, float def, float hiBound, float& v, TexturePtr& slot) {
+        if (auto it = textures.find(name); it != textures.end()) {
+            slot = tex(name);
+            const float hi = scalarOf(slot->maxValue());
+            if (!(hi <= hiBound))
+                xml::fail(*it->second, fmt::format("the texture for '{}' reaches {}: must be in [0, {}]", name, hi, hiBound));
+            return;
+        }
+        v = p.getFloat(name, def);
+        if (!(v >= 0.f && v <= hiBound)) p.failAt(name, fmt::format("must be in [0, {}] (got {})", hiBound, v));
+    };
+    if (textures.count("base_color")) t.baseColor = tex("base_color");
+    else q.baseColor = nonNegColor(p, "base_color", Color(0.5f));
+    ranged("roughness", 0.5f, 1.f, q.roughness, t.roughness);
+    ranged("anisotropic", 0.f, 1.f, q.anisotropic, t.anisotropic);
+    ranged("spec_trans", 0.f, 1.f, q.specTrans, t.specTrans);
+    ranged("spec_tint", 0.f, 1.f, q.specTint, t.specTint);
+    ranged("sheen", 0.f, 1.f, q.sheen, t.sheen);
+    ranged("sheen_tint", 0.f, 1.f, q.sheenTint, t.sheenTint);
+    ranged("flatness", 0.f, 1.f, q.flatness, t.flatness);
+    float diffTrans = 0.f;
+    ranged("diff_trans", 0.f, 2.f, diffTrans, t.diffTrans);
+    q.diffTrans = 0.5f * diffTrans;
+    if (auto it = textures.find("eta"); it != textures.end()) {
+        t.eta = tex("eta");
+        const float lo = scalarOf(t.eta->minValue());
+        if (!(lo > 0.f)) xml::fail(*it->second, fmt::format("the texture for 'eta' reaches {}: must be positive", lo));
+    } else {
+        q.eta = p.getFloat("eta", 1.5f);
+        if (!(q.eta > 0.f) || !std::isfinite(q.eta)) p.failAt("eta", fmt::format("must be positive (got {})", q.eta));
+    }
+    auto rate = [&](const char* name, float& v) {
+        v = p.getFloat(name, 1.f);
+        if (!(v >= 0.f) || !std::isfinite(v)) p.failAt(name, fmt::format("must be >= 0 and finite (got {})", v));
+    };
+    rate("specular_reflectance_sampling_rate", q.specReflRate);
+    rate("specular_transmittance_sampling_rate", q.specTransRate);
+    rate("diffuse_reflectance_sampling_rate", q.diffReflRate);
+    rate("diffuse_transmittance_sampling_rate", q.diffTransRate);
+    p.finish();
+    return makePrincipledThin(q, t);
+}
+
+}  // namespace
 
 // Oren and Nayar's rough diffuse model with Mitsuba 0.6's roughdiffuse parameters (reflectance,
 // alpha, use_fast_approx; 0.6's diffuseReflectance and useFastApprox spellings map to these).
@@ -482,6 +600,10 @@ BxdfPtr Materials::buildBsdf(const Elem& e) {
     if (t == "thindielectric" || t == "null" || t == "polarizer") return buildThinSheet(e, p, t);
     if (t == "pplastic") return buildPolarizedPlastic(e, p);
     if (t == "roughdiffuse") return buildRoughDiffuse(p, textures);
+    if (t == "principled")
+        return buildPrincipled(p, textures, [&](const std::string& n) { return paramTexture(textures, n); });
+    if (t == "principledthin")
+        return buildPrincipledThin(p, textures, [&](const std::string& n) { return paramTexture(textures, n); });
     bool rough = t.rfind("rough", 0) == 0;
     MicrofacetType dist = MicrofacetType::Beckmann;
     float au = 0.f, av = 0.f;

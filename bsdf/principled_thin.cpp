@@ -1,0 +1,311 @@
+// Mitsuba 3's principledthin (its documentation and src/bsdfs/principledthin.cpp are the spec):
+// Burley 2015's thin-surface form of the Disney BSDF, a two-sided sheet that does not bend light.
+// Both sides are the same: with s the sign of wo.z, the model is evaluated for (s wo, s wi), wo
+// above. With h = normalize(wo + wi'), wi' = wi mirrored to the upper side, F the dielectric
+// Fresnel of wo.h with eta, st = spec_trans, dt = diff_trans / 2:
+//  * specular reflection: st F' D G / (4 |wo.z| |wi.z|), F' = lerp(F, Schlick(tint R0(eta)),
+//    spec_tint), GGX of the main alphas (principled's);
+//  * specular transmission (wi below): st base_color (1 - F) D_t G_t / (4 |wo.z| |wi.z|), GGX with
+//    roughness scaled by 0.65 eta - 0.35 (Burley 2015, Fig. 15): the reflection mirrored through
+//    the sheet, where wi.h < 0 (Mitsuba's macro-micro test);
+//  * diffuse reflection with retro-reflection, flatness and sheen (principled's), times
+//    (1 - st)(1 - dt); diffuse transmission (1 - st) dt base_color / pi.
+// Sampling: Mitsuba's lobe probabilities st rate / 2 (each specular lobe), (1 - st)(1 - dt) rate,
+// (1 - st) dt rate; the density is the mixture. The transmission's macro-micro test is not
+// symmetric in (wo, wi), so the model is not reciprocal near its edge: Importance mode evaluates
+// the Radiance model with the directions swapped (f*(wo, wi) = f(wo -> wi), bsdf.h), and a sample's
+// weight there is that value over the sampling density. No light is bent: a transmission's eta is 1.
+// Regularisation requests change nothing.
+#include "bsdf/fresnel.h"
+#include "bsdf/microfacet.h"
+#include "bsdf/principled.h"
+#include "core/sampling.h"
+#include "core/texture/texture.h"
+
+namespace lt {
+
+namespace {
+
+using namespace principled_detail;
+
+Roughness thinTransAlphas(float roughness, float anisotropic, float eta) {
+    return mainAlphas((0.65f * eta - 0.35f) * roughness, anisotropic);
+}
+
+class PrincipledThinBxdf final : public Bxdf {
+public:
+    struct Instance {};
+    PrincipledThinBxdf(const PrincipledThinParams& p, Instance)
+        : p_(p), mfR_(MicrofacetType::GGX, mainAlphas(p.roughness, p.anisotropic).alphaU,
+                      mainAlphas(p.roughness, p.anisotropic).alphaV),
+          mfT_(MicrofacetType::GGX, thinTransAlphas(p.roughness, p.anisotropic, p.eta).alphaU,
+               thinTransAlphas(p.roughness, p.anisotropic, p.eta).alphaV) {
+        const float lum = mitsubaLuminance(p.baseColor);
+        tint_ = lum > 0.f ? p.baseColor / lum : Color(1.f);
+        sheenColor_ = Color(1.f) + (tint_ - Color(1.f)) * p.sheenTint;
+    }
+    explicit PrincipledThinBxdf(const PrincipledThinParams& p) : PrincipledThinBxdf(p, Instance{}) {
+        continuation_ = 1.f;  // (the specular lobes' Fresnel weights are those of a dielectric of scale 1)
+        cacheBounds();
+        changeableBound_[0] = changeableBound_[1] = 0.f;
+    }
+
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
+        BsdfEval e;
+        if (wo.z == 0.f || wi.z == 0.f) return e;
+        e.f = ctx.mode == TransportMode::Radiance ? valueAny(wo, wi) : valueAny(wi, wo);
+        if (ctx.valueOnly) return e;
+        e.pdfFwd = SolidAnglePdf(pdfAny(wo, wi));
+        e.pdfRev = SolidAnglePdf(pdfAny(wi, wo));
+        return e;
+    }
+
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
+        if (wo.z == 0.f) return false;
+        const float s = wo.z > 0.f ? 1.f : -1.f;
+        const Vec3 o = wo * s;
+        Probs pr;
+        if (!probs(pr)) return false;
+        Vec3 i;
+        uint32_t lobe;
+        float uExtra = 0.f;
+        if (uLobe < pr.specR) {
+            const Vec3 m = mfR_.sampleVisible(o, u, uExtra);
+            i = reflectAbout(o, m);
+            if (!(i.z > 0.f) || !(glm::dot(o, m) > 0.f) || !(glm::dot(i, m) > 0.f)) return false;
+            lobe = kReflection | kGlossy;
+        } else if (uLobe < pr.specR + pr.specT) {
+            const Vec3 m = mfT_.sampleVisible(o, u, uExtra);
+            i = reflectAbout(o, m);
+            i.z = -i.z;
+            if (!(i.z < 0.f) || !(glm::dot(o, m) > 0.f) || !(glm::dot(i, m) < 0.f)) return false;
+            lobe = kTransmission | kGlossy;
+        } else if (uLobe < pr.specR + pr.specT + pr.diffR) {
+            i = sampleCosineHemisphere(u);
+            lobe = kReflection | kDiffuse;
+        } else {
+            i = -sampleCosineHemisphere(u);
+            lobe = kTransmission | kDiffuse;
+        }
+        if (i.z == 0.f) return false;
+        const Vec3 wi = i * s;
+        const float pdf = pdfFront(o, i);
+        if (!(pdf > 0.f) || !std::isfinite(pdf)) return false;
+        if (ctx.directionOnly) {
+            out.wi = wi;
+            return true;
+        }
+        const Color f = ctx.mode == TransportMode::Radiance ? valueAny(wo, wi) : valueAny(wi, wo);
+        const Color w = f * (std::abs(i.z) / pdf);
+        if (!std::isfinite(w.x + w.y + w.z)) return false;
+        out.wi = wi;
+        out.weight = w;
+        out.pdfFwd = SolidAnglePdf(pdf);
+        out.pdfRev = SolidAnglePdf(pdfAny(wi, wo));
+        out.lobe = lobe;
+        out.eta = 1.f;
+        return true;
+    }
+
+    uint32_t flags() const override {
+        uint32_t f = kReflection;
+        if (p_.specTrans > 0.f) f |= kGlossy | kTransmission;
+        if (p_.specTrans < 1.f) {
+            if (p_.diffTrans < 1.f) f |= kDiffuse;
+            if (p_.diffTrans > 0.f) f |= kDiffuse | kTransmission;
+        }
+        return f;
+    }
+    float roughness() const override {
+        if (!(p_.specTrans > 0.f)) return 1.f;
+        return std::min(scalarRoughness(mfR_.alphaU(), mfR_.alphaV()), scalarRoughness(mfT_.alphaU(), mfT_.alphaV()));
+    }
+    Roughness alpha() const override { return {mfR_.alphaU(), mfR_.alphaV()}; }
+    float valueBound(const BsdfContext&) const override { return kInf; }
+    std::string name() const override { return "principledthin"; }
+
+private:
+    struct Probs {
+        float specR = 0.f, specT = 0.f, diffR = 0.f, diffT = 0.f;
+    };
+    bool probs(Probs& pr) const {
+        const float st = p_.specTrans, dt = p_.diffTrans;
+        pr.specR = st * p_.specReflRate * 0.5f;
+        pr.specT = st * p_.specTransRate * 0.5f;
+        pr.diffR = p_.diffReflRate * (1.f - st) * (1.f - dt);
+        pr.diffT = p_.diffTransRate * (1.f - st) * dt;
+        const float total = pr.specR + pr.specT + pr.diffR + pr.diffT;
+        if (!(total > 0.f) || !std::isfinite(total)) return false;
+        const float inv = 1.f / total;
+        pr.specR *= inv;
+        pr.specT *= inv;
+        pr.diffR *= inv;
+        pr.diffT *= inv;
+        return true;
+    }
+    // The half vector of o (above) and i mirrored above; false where it does not exist.
+    static bool half(const Vec3& o, const Vec3& i, Vec3& h) {
+        h = o + Vec3(i.x, i.y, std::abs(i.z));
+        const float len = glm::length(h);
+        if (!(len > 0.f) || !std::isfinite(len)) return false;
+        h /= len;
+        return true;
+    }
+    Color valueAny(const Vec3& a, const Vec3& b) const {
+        const float s = a.z > 0.f ? 1.f : -1.f;
+        return valueFront(a * s, b * s);
+    }
+    float pdfAny(const Vec3& a, const Vec3& b) const {
+        if (a.z == 0.f || b.z == 0.f) return 0.f;
+        const float s = a.z > 0.f ? 1.f : -1.f;
+        return pdfFront(a * s, b * s);
+    }
+    // f for o above (the side the model is defined on), i anywhere.
+    Color valueFront(const Vec3& o, const Vec3& i) const {
+        Color f(0.f);
+        Vec3 h;
+        if (i.z == 0.f || !half(o, i, h)) return f;
+        const bool reflect = i.z > 0.f;
+        const float co = o.z, ci = std::abs(i.z), st = p_.specTrans, dt = p_.diffTrans;
+        const float oh = glm::dot(o, h), ih = glm::dot(i, h);
+        if (st > 0.f && oh > 0.f) {
+            const float F = fresnelDielectric(oh, p_.eta);
+            if (reflect && ih > 0.f) {
+                float fs = F;
+                Color fp(F);
+                if (p_.specTint > 0.f) {
+                    const float r0 = (p_.eta - 1.f) / (p_.eta + 1.f);
+                    fp = Color(fs) + (schlick(tint_ * (r0 * r0), oh, p_.eta) - Color(fs)) * p_.specTint;
+                }
+                const float dg = mfR_.D(h) * mfR_.G1(o, h) * mfR_.G1(i, h);
+                f += fp * (st * dg / (4.f * co * ci));
+            } else if (!reflect && ih < 0.f) {
+                const float dg = mfT_.D(h) * mfT_.G1(o, h) * mfT_.G1(i, h);
+                f += p_.baseColor * (st * (1.f - F) * dg / (4.f * co * ci));
+            }
+        }
+        if (reflect && st < 1.f && dt < 1.f) {
+            const float fo = schlickWeight(ci), fi = schlickWeight(co);
+            const float cosD = ih;
+            const float rr = 2.f * p_.roughness * cosD * cosD;
+            float shape = (1.f - 0.5f * fi) * (1.f - 0.5f * fo) + rr * (fo + fi + fo * fi * (rr - 1.f));
+            if (p_.flatness > 0.f) {
+                const float fss90 = 0.5f * rr;
+                const float fss = lerpf(1.f, fss90, fo) * lerpf(1.f, fss90, fi);
+                const float ss = 1.25f * (fss * (1.f / (co + ci) - 0.5f) + 0.5f);
+                shape = lerpf(shape, ss, p_.flatness);
+            }
+            f += p_.baseColor * ((1.f - st) * (1.f - dt) * kInvPi * shape);
+            if (p_.sheen > 0.f) f += sheenColor_ * (p_.sheen * (1.f - st) * (1.f - dt) * schlickWeight(std::abs(cosD)));
+        }
+        if (!reflect && st < 1.f && dt > 0.f) f += p_.baseColor * ((1.f - st) * dt * kInvPi);
+        return f;
+    }
+    float pdfFront(const Vec3& o, const Vec3& i) const {
+        Probs pr;
+        if (i.z == 0.f || !probs(pr)) return 0.f;
+        const bool reflect = i.z > 0.f;
+        float pdf = reflect ? pr.diffR * i.z * kInvPi : pr.diffT * (-i.z) * kInvPi;
+        Vec3 h;
+        if (p_.specTrans > 0.f && half(o, i, h)) {
+            const float oh = glm::dot(o, h), ih = glm::dot(i, h);
+            const float jac = 1.f / (4.f * std::abs(glm::dot(Vec3(i.x, i.y, std::abs(i.z)), h)));
+            if (oh > 0.f && reflect && ih > 0.f) pdf += pr.specR * mfR_.pdfVisible(o, h) * jac;
+            if (oh > 0.f && !reflect && ih < 0.f) pdf += pr.specT * mfT_.pdfVisible(o, h) * jac;
+        }
+        return std::isfinite(pdf) ? pdf : 0.f;
+    }
+
+    PrincipledThinParams p_;
+    Microfacet mfR_, mfT_;
+    Color tint_{1.f}, sheenColor_{1.f};
+};
+
+// principledthin with textured parameters (as TexturedPrincipledBxdf): the point's model at atUv,
+// the textures' means without a point, flags and roughness over the textures' ranges.
+class TexturedPrincipledThinBxdf final : public Bxdf {
+public:
+    TexturedPrincipledThinBxdf(const PrincipledThinParams& p, const PrincipledThinTextures& t)
+        : p_(p), t_(t), mean_(at(&Texture::meanValue), PrincipledThinBxdf::Instance{}) {
+        const PrincipledThinParams lo = at(&Texture::minValue), hi = at(&Texture::maxValue);
+        flags_ = kReflection;
+        if (hi.specTrans > 0.f) flags_ |= kGlossy | kTransmission;
+        if (lo.specTrans < 1.f) {
+            if (lo.diffTrans < 1.f) flags_ |= kDiffuse;
+            if (hi.diffTrans > 0.f) flags_ |= kDiffuse | kTransmission;
+        }
+        roughness_ = 1.f;
+        if (hi.specTrans > 0.f) {
+            const Roughness a = mainAlphas(lo.roughness, hi.anisotropic);
+            const float etaScale = std::min(std::abs(0.65f * lo.eta - 0.35f), std::abs(0.65f * hi.eta - 0.35f));
+            const Roughness b = mainAlphas(etaScale * lo.roughness, hi.anisotropic);
+            roughness_ = std::min(scalarRoughness(a.alphaU, a.alphaV), scalarRoughness(b.alphaU, b.alphaV));
+        }
+        anisotropic_ = hi.anisotropic > 0.f;
+        textured_ = true;
+        continuation_ = 1.f;
+        cacheBounds();
+        changeableBound_[0] = changeableBound_[1] = 0.f;
+    }
+    const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
+        PrincipledThinParams q = p_;
+        auto scalar = [&](const TexturePtr& x, float& v, float scale) {
+            if (x) v = scale * x->evalScalar(uv);
+        };
+        if (t_.baseColor) q.baseColor = t_.baseColor->eval(uv);
+        scalar(t_.roughness, q.roughness, 1.f);
+        scalar(t_.anisotropic, q.anisotropic, 1.f);
+        scalar(t_.specTrans, q.specTrans, 1.f);
+        scalar(t_.specTint, q.specTint, 1.f);
+        scalar(t_.sheen, q.sheen, 1.f);
+        scalar(t_.sheenTint, q.sheenTint, 1.f);
+        scalar(t_.flatness, q.flatness, 1.f);
+        scalar(t_.diffTrans, q.diffTrans, 0.5f);
+        scalar(t_.eta, q.eta, 1.f);
+        return emplaceInstance<PrincipledThinBxdf>(storage, capacity, q, PrincipledThinBxdf::Instance{});
+    }
+    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override { return mean_.eval(wo, wi, ctx); }
+    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
+        return mean_.sample(wo, uLobe, u, ctx, out);
+    }
+    uint32_t flags() const override { return flags_; }
+    float roughness() const override { return roughness_; }
+    Roughness alpha() const override { return mean_.alpha(); }
+    bool anisotropic() const override { return anisotropic_; }
+    float valueBound(const BsdfContext&) const override { return kInf; }
+    std::string name() const override { return "principledthin(textured)"; }
+
+private:
+    PrincipledThinParams at(Color (Texture::*stat)() const) const {
+        PrincipledThinParams q = p_;
+        auto scalar = [&](const TexturePtr& x, float& v, float scale) {
+            if (x) v = scale * scalarOf(((*x).*stat)());
+        };
+        if (t_.baseColor) q.baseColor = ((*t_.baseColor).*stat)();
+        scalar(t_.roughness, q.roughness, 1.f);
+        scalar(t_.anisotropic, q.anisotropic, 1.f);
+        scalar(t_.specTrans, q.specTrans, 1.f);
+        scalar(t_.specTint, q.specTint, 1.f);
+        scalar(t_.sheen, q.sheen, 1.f);
+        scalar(t_.sheenTint, q.sheenTint, 1.f);
+        scalar(t_.flatness, q.flatness, 1.f);
+        scalar(t_.diffTrans, q.diffTrans, 0.5f);
+        scalar(t_.eta, q.eta, 1.f);
+        return q;
+    }
+    PrincipledThinParams p_;
+    PrincipledThinTextures t_;
+    PrincipledThinBxdf mean_;
+    uint32_t flags_ = 0;
+    float roughness_ = 1.f;
+    bool anisotropic_ = false;
+};
+
+}  // namespace
+
+BxdfPtr makePrincipledThin(const PrincipledThinParams& p, const PrincipledThinTextures& t) {
+    if (t.any()) return std::make_shared<TexturedPrincipledThinBxdf>(p, t);
+    return std::make_shared<PrincipledThinBxdf>(p);
+}
+
+}  // namespace lt
