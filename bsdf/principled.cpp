@@ -303,21 +303,8 @@ public:
         changeableBound_[0] = changeableBound_[1] = 0.f;
     }
     const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
-        PrincipledParams q = p_;
-        auto scalar = [&](const TexturePtr& x, float& v) {
-            if (x) v = x->evalScalar(uv);
-        };
-        if (t_.baseColor) q.baseColor = t_.baseColor->eval(uv);
-        scalar(t_.roughness, q.roughness);
-        scalar(t_.anisotropic, q.anisotropic);
-        scalar(t_.metallic, q.metallic);
-        scalar(t_.specTrans, q.specTrans);
-        scalar(t_.specTint, q.specTint);
-        scalar(t_.sheen, q.sheen);
-        scalar(t_.sheenTint, q.sheenTint);
-        scalar(t_.flatness, q.flatness);
-        scalar(t_.clearcoat, q.clearcoat);
-        scalar(t_.clearcoatGloss, q.clearcoatGloss);
+        const PrincipledParams q = resolved([&](const Texture& x) { return x.eval(uv); },
+                                            [&](const Texture& x) { return x.evalScalar(uv); });
         return emplaceInstance<PrincipledBxdf>(storage, capacity, q, PrincipledBxdf::Instance{});
     }
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override { return mean_.eval(wo, wi, ctx); }
@@ -334,11 +321,17 @@ public:
 private:
     // The parameters with each texture replaced by one of its statistics.
     PrincipledParams at(Color (Texture::*stat)() const) const {
+        return resolved([&](const Texture& x) { return (x.*stat)(); },
+                        [&](const Texture& x) { return scalarOf((x.*stat)()); });
+    }
+    // The parameters with each texture replaced by color(texture) (base_color) or scalar(texture).
+    template <class C, class S>
+    PrincipledParams resolved(C&& color, S&& scalarValue) const {
         PrincipledParams q = p_;
         auto scalar = [&](const TexturePtr& x, float& v) {
-            if (x) v = scalarOf(((*x).*stat)());
+            if (x) v = scalarValue(*x);
         };
-        if (t_.baseColor) q.baseColor = ((*t_.baseColor).*stat)();
+        if (t_.baseColor) q.baseColor = color(*t_.baseColor);
         scalar(t_.roughness, q.roughness);
         scalar(t_.anisotropic, q.anisotropic);
         scalar(t_.metallic, q.metallic);

@@ -248,20 +248,8 @@ public:
         changeableBound_[0] = changeableBound_[1] = 0.f;
     }
     const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
-        PrincipledThinParams q = p_;
-        auto scalar = [&](const TexturePtr& x, float& v, float scale) {
-            if (x) v = scale * x->evalScalar(uv);
-        };
-        if (t_.baseColor) q.baseColor = t_.baseColor->eval(uv);
-        scalar(t_.roughness, q.roughness, 1.f);
-        scalar(t_.anisotropic, q.anisotropic, 1.f);
-        scalar(t_.specTrans, q.specTrans, 1.f);
-        scalar(t_.specTint, q.specTint, 1.f);
-        scalar(t_.sheen, q.sheen, 1.f);
-        scalar(t_.sheenTint, q.sheenTint, 1.f);
-        scalar(t_.flatness, q.flatness, 1.f);
-        scalar(t_.diffTrans, q.diffTrans, 0.5f);
-        scalar(t_.eta, q.eta, 1.f);
+        const PrincipledThinParams q = resolved([&](const Texture& x) { return x.eval(uv); },
+                                                [&](const Texture& x) { return x.evalScalar(uv); });
         return emplaceInstance<PrincipledThinBxdf>(storage, capacity, q, PrincipledThinBxdf::Instance{});
     }
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override { return mean_.eval(wo, wi, ctx); }
@@ -277,11 +265,17 @@ public:
 
 private:
     PrincipledThinParams at(Color (Texture::*stat)() const) const {
+        return resolved([&](const Texture& x) { return (x.*stat)(); },
+                        [&](const Texture& x) { return scalarOf((x.*stat)()); });
+    }
+    // The parameters with each texture replaced by color(texture) (base_color) or scalar(texture).
+    template <class C, class S>
+    PrincipledThinParams resolved(C&& color, S&& scalarValue) const {
         PrincipledThinParams q = p_;
         auto scalar = [&](const TexturePtr& x, float& v, float scale) {
-            if (x) v = scale * scalarOf(((*x).*stat)());
+            if (x) v = scale * scalarValue(*x);
         };
-        if (t_.baseColor) q.baseColor = ((*t_.baseColor).*stat)();
+        if (t_.baseColor) q.baseColor = color(*t_.baseColor);
         scalar(t_.roughness, q.roughness, 1.f);
         scalar(t_.anisotropic, q.anisotropic, 1.f);
         scalar(t_.specTrans, q.specTrans, 1.f);
