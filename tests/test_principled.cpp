@@ -115,40 +115,43 @@ int chi2CaseCount() {
 
 // Bins: caps around the mirror and the refracted direction at the lobe's scale, and the whole
 // sphere around the normal.
-void runChi2(const Case& c, const Vec3& wo, uint64_t seed, double level) {
-    const BxdfPtr bp = makePrincipled(c.p);
-    const Bxdf& b = *bp;
-    const BsdfContext ctx(TransportMode::Radiance);
+// Chi-square of b's sampling against its pdf from wo, with fine bins (half the lobe's alpha) about
+// each peak direction and coarse ones elsewhere; the lost samples (failed draws) are the pdf's
+// missing mass: 5 binomial standard errors + 2e-3 for the quadrature (as test_bsdf_extra.cpp).
+void runLobeChi2(const Bxdf& b, const std::string& name, const Vec3& wo, const std::vector<Vec3>& peaks,
+                 float lobeAlpha, uint64_t seed, double level) {
     chi2::SampleFn sampler = [&](Rng& rng, Vec3& w) {
         BsdfSample s;
         const float ul = rng.uniform();
         const Vec2 u = rng.uniform2();
-        if (!b.sample(wo, ul, u, ctx, s)) return false;
+        if (!b.sample(wo, ul, u, kRadianceContext, s)) return false;
         w = s.wi;
         return true;
     };
-    chi2::PdfFn pdf = [&](const Vec3& w) { return double(b.eval(wo, w, ctx).pdfFwd.value); };
+    chi2::PdfFn pdf = [&](const Vec3& w) { return double(b.eval(wo, w, kRadianceContext).pdfFwd.value); };
     std::vector<chi2::Region> regions;
-    const float cosCap = std::cos(std::min(1.2f, 6.f * c.lobeAlpha + 0.02f));
-    const Vec3 mirror(-wo.x, -wo.y, wo.z);
-    regions.push_back({chi2::Domain(mirror, 0.5 * c.lobeAlpha, 40, 80),
-                       [mirror, cosCap](const Vec3& w) { return glm::dot(w, mirror) > cosCap; }});
-    Vec3 t;
-    if (c.p.specTrans > 0.f && refractAbout(wo, Vec3(0.f, 0.f, 1.f), c.p.eta, t))
-        regions.push_back({chi2::Domain(t, 0.5 * c.lobeAlpha, 40, 80),
-                           [t, cosCap](const Vec3& w) { return glm::dot(w, t) > cosCap; }});
+    const float cosCap = std::cos(std::min(1.2f, 6.f * lobeAlpha + 0.02f));
+    for (const Vec3& peak : peaks)
+        regions.push_back({chi2::Domain(peak, 0.5 * lobeAlpha, 40, 80),
+                           [peak, cosCap](const Vec3& w) { return glm::dot(w, peak) > cosCap; }});
     regions.push_back({chi2::Domain(Vec3(0.f, 0.f, 1.f), 1.0, 40, 80), nullptr});
     chi2::Chi2Test test(sampler, 200000, seed);
     const chi2::Result res = test.run(pdf, regions, level);
-    INFO(c.name << " wo " << wo.x << " " << wo.y << " " << wo.z << ": " << res.summary());
+    INFO(name << " wo " << wo.x << " " << wo.y << " " << wo.z << ": " << res.summary());
     CHECK(res.samplesInZeroBins == 0);
     CHECK(res.pValue >= res.significance);
-    // The lost samples (failed draws) are the pdf's missing mass: 5 binomial standard errors + 2e-3
-    // for the quadrature (as test_bsdf_extra.cpp).
     const double n = double(res.samples), lostFrac = double(res.lost) / n;
     const double se = std::sqrt(std::max(lostFrac * (1.0 - lostFrac), 1.0 / n) / n);
     CHECK(res.pdfIntegral <= 1.0 + 2e-3);
     CHECK(std::abs((1.0 - res.pdfIntegral) - lostFrac) <= 5.0 * se + 2e-3);
+}
+
+// Peaks: the mirror direction, and the refracted one where the case transmits.
+void runChi2(const Case& c, const Vec3& wo, uint64_t seed, double level) {
+    std::vector<Vec3> peaks{Vec3(-wo.x, -wo.y, wo.z)};
+    Vec3 t;
+    if (c.p.specTrans > 0.f && refractAbout(wo, Vec3(0.f, 0.f, 1.f), c.p.eta, t)) peaks.push_back(t);
+    runLobeChi2(*makePrincipled(c.p), c.name, wo, peaks, c.lobeAlpha, seed, level);
 }
 
 // A direction uniformly on the sphere.
@@ -557,34 +560,10 @@ std::vector<ThinCase> thinCases() {
 }
 int thinChi2CaseCount() { return int(thinCases().size() * kAngles.size() * 2); }
 
+// Peaks: the mirror direction and the straight-through one (the sheet does not bend light).
 void runThinChi2(const ThinCase& c, const Vec3& wo, uint64_t seed, double level) {
-    const BxdfPtr b = makePrincipledThin(c.p);
-    chi2::SampleFn sampler = [&](Rng& rng, Vec3& w) {
-        BsdfSample s;
-        const float ul = rng.uniform();
-        const Vec2 u = rng.uniform2();
-        if (!b->sample(wo, ul, u, kRadianceContext, s)) return false;
-        w = s.wi;
-        return true;
-    };
-    chi2::PdfFn pdf = [&](const Vec3& w) { return double(b->eval(wo, w, kRadianceContext).pdfFwd.value); };
-    const float cosCap = std::cos(std::min(1.2f, 6.f * c.lobeAlpha + 0.02f));
-    const Vec3 mirror(-wo.x, -wo.y, wo.z), through = -mirror;  // (the sheet does not bend light)
-    std::vector<chi2::Region> regions;
-    regions.push_back({chi2::Domain(mirror, 0.5 * c.lobeAlpha, 40, 80),
-                       [mirror, cosCap](const Vec3& w) { return glm::dot(w, mirror) > cosCap; }});
-    regions.push_back({chi2::Domain(through, 0.5 * c.lobeAlpha, 40, 80),
-                       [through, cosCap](const Vec3& w) { return glm::dot(w, through) > cosCap; }});
-    regions.push_back({chi2::Domain(Vec3(0.f, 0.f, 1.f), 1.0, 40, 80), nullptr});
-    chi2::Chi2Test test(sampler, 200000, seed);
-    const chi2::Result res = test.run(pdf, regions, level);
-    INFO(c.name << " wo " << wo.x << " " << wo.y << " " << wo.z << ": " << res.summary());
-    CHECK(res.samplesInZeroBins == 0);
-    CHECK(res.pValue >= res.significance);
-    const double n = double(res.samples), lostFrac = double(res.lost) / n;
-    const double se = std::sqrt(std::max(lostFrac * (1.0 - lostFrac), 1.0 / n) / n);
-    CHECK(res.pdfIntegral <= 1.0 + 2e-3);
-    CHECK(std::abs((1.0 - res.pdfIntegral) - lostFrac) <= 5.0 * se + 2e-3);
+    const Vec3 mirror(-wo.x, -wo.y, wo.z);
+    runLobeChi2(*makePrincipledThin(c.p), c.name, wo, {mirror, -mirror}, c.lobeAlpha, seed, level);
 }
 
 }  // namespace
