@@ -6,6 +6,7 @@
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
+#include "bsdf/textured_microfacet.h"
 #include "core/texture/texture.h"
 
 #include <cstring>
@@ -265,52 +266,37 @@ private:
 //   ratios    where the alphas vary, no pair geometry (the integrators ask the material's
 //             requestRatio, which knows no point's alpha: they evaluate instead) and no
 //             requestRatioBound.
-class TexturedConductorBxdf final : public Bxdf {
+class TexturedConductorBxdf final : public TexturedMicrofacetBxdf<ConductorBxdf> {
 public:
     TexturedConductorBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, const Color& eta,
                           const Color& k, const Color& specR, const ConductorTextures& t)
-        : rough_(rough), dist_(dist), masking_(masking), au_(au), av_(av), eta_(eta), k_(k), specR_(specR), t_(t),
-          smoothComp_(MicrofacetLobe{dist, masking, 0.f, 0.f}), glossy_(dist, masking, rough && (t.alphaU || t.alphaV)) {
+        : TexturedMicrofacetBxdf(rough, dist, masking, au, av, t.alphaU, t.alphaV), eta_(eta), k_(k), specR_(specR),
+          t_(t), smoothComp_(MicrofacetLobe{dist, masking, 0.f, 0.f}), glossy_(dist, masking, alphaTextured_) {
         const float inv = 1.f / t.extEta;
-        auto scalar = [](const TexturePtr& x, float c, Color (Texture::*f)() const) {
-            return x ? scalarOf(((*x).*f)()) : c;
-        };
-        const float meanU = scalar(t.alphaU, au, &Texture::meanValue), meanV = scalar(t.alphaV, av, &Texture::meanValue);
-        const float minU = scalar(t.alphaU, au, &Texture::minValue), minV = scalar(t.alphaV, av, &Texture::minValue);
-        const float maxU = scalar(t.alphaU, au, &Texture::maxValue), maxV = scalar(t.alphaV, av, &Texture::maxValue);
+        const AlphaRange& r = range();
         const Color meanEta = t.eta ? t.eta->meanValue() * inv : eta, meanK = t.k ? t.k->meanValue() * inv : k;
         const Color meanSpec = t.specularReflectance ? t.specularReflectance->meanValue() : specR;
-        alphaTextured_ = rough && (t.alphaU || t.alphaV);
-        const bool anyRough = rough && std::max(maxU, maxV) >= kMinAlpha;
-        const bool anySmooth = !rough || !(std::max(minU, minV) >= kMinAlpha);
-        mean_ = std::make_unique<ConductorBxdf>(rough && std::max(meanU, meanV) >= kMinAlpha, dist, meanU, meanV, masking,
-                                                meanEta, meanK, meanSpec);
-        const float amin = std::max(0.f, std::min(minU, minV));
-        if (anyRough) roughPart_ = std::make_unique<ConductorBxdf>(true, dist, amin, amin, masking, meanEta, meanK, meanSpec);
-        if (anySmooth) smooth_ = std::make_unique<ConductorBxdf>(false, dist, 0.f, 0.f, masking, meanEta, meanK, meanSpec);
-        flags_ = kReflection | (anyRough ? kGlossy : 0u) | (anySmooth ? kDelta : 0u);
+        mean_ = std::make_unique<ConductorBxdf>(r.meanRough, dist, r.meanU, r.meanV, masking, meanEta, meanK, meanSpec);
+        if (r.anyRough)
+            roughPart_ = std::make_unique<ConductorBxdf>(true, dist, r.minAlpha, r.minAlpha, masking, meanEta, meanK,
+                                                         meanSpec);
+        if (r.anySmooth) smooth_ = std::make_unique<ConductorBxdf>(false, dist, 0.f, 0.f, masking, meanEta, meanK, meanSpec);
+        flags_ = kReflection | (r.anyRough ? kGlossy : 0u) | (r.anySmooth ? kDelta : 0u);
         minPlain_ = roughPart_ ? roughPart_->plainBound() : 0.f;
-        textured_ = true;
         continuation_ = continuationOf(t.specularReflectance ? t.specularReflectance->maxValue() : specR);
         cacheBounds();
     }
 
     const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
-        const float au = t_.alphaU ? t_.alphaU->evalScalar(uv) : au_;
-        const float av = t_.alphaV ? (t_.alphaV == t_.alphaU ? au : t_.alphaV->evalScalar(uv)) : av_;
+        float au, av;
+        bool rough;
+        alphasAt(uv, au, av, rough);
         // (divided as the loader divides a constant eta and k: the same floats)
         const Color eta = t_.eta ? t_.eta->eval(uv) / t_.extEta : eta_, k = t_.k ? t_.k->eval(uv) / t_.extEta : k_;
         const Color spec = t_.specularReflectance ? t_.specularReflectance->eval(uv) : specR_;
-        // (makeRoughConductor's test: rough where either alpha reaches kMinAlpha)
-        const bool rough = rough_ && std::max(au, av) >= kMinAlpha;
         return emplaceInstance<ConductorBxdf>(storage, capacity, rough, dist_, au, av, masking_, eta, k, spec,
                                               ConductorBxdf::Instance{&smoothComp_, &glossy_, !alphaTextured_});
     }
-    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override { return mean_->eval(wo, wi, ctx); }
-    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
-        return mean_->sample(wo, uLobe, u, ctx, out);
-    }
-    uint32_t flags() const override { return flags_; }
     bool deltaUnder(const BsdfContext& ctx) const override {
         return flags_ == (kReflection | kDelta) ? smooth_->deltaUnder(ctx) : isDelta();
     }
@@ -324,36 +310,13 @@ public:
         }
         return b;
     }
-    PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
-        return alphaTextured_ ? PairGeometry{} : mean_->pairGeometry(wo, wi);
-    }
-    float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override { return mean_->requestRatio(g, ctx); }
-    float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
-        return mean_->requestPdfRatio(g, r);
-    }
-    float requestRatioBound(const RegularizationRequest& r) const override {
-        return alphaTextured_ ? kInf : mean_->requestRatioBound(r);
-    }
-    float roughness() const override { return mean_->roughness(); }
-    Roughness alpha() const override { return mean_->alpha(); }
-    bool anisotropic() const override {
-        return (rough_ && t_.alphaU != t_.alphaV) || (!t_.alphaU && !t_.alphaV && mean_->anisotropic());
-    }
-    std::string name() const override { return mean_->name() + "(textured)"; }
 
 private:
-    bool rough_;
-    MicrofacetType dist_;
-    MaskingModel masking_;
-    float au_, av_;
     Color eta_, k_, specR_;
     ConductorTextures t_;
     LobeCompensation smoothComp_;     // the smooth points' (a smooth ConductorBxdf's own)
     GlossyCompensations glossy_;      // the glossy isotropic points', by alpha
-    bool alphaTextured_ = false;
-    uint32_t flags_ = 0;
     float minPlain_ = 0.f;            // the rough part's plain bound (its smallest alpha's)
-    std::unique_ptr<ConductorBxdf> mean_, roughPart_, smooth_;
 };
 
 }  // namespace

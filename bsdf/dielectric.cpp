@@ -13,6 +13,7 @@
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/roughness_bound.h"
+#include "bsdf/textured_microfacet.h"
 #include "core/texture/texture.h"
 
 #include <memory>
@@ -371,51 +372,36 @@ private:
 // glossy and delta), bounds the rough lobes' at the smallest alpha anywhere (a glossy interface is
 // never compensated, so its bound falls with alpha) and the smooth points' own, no pair geometry
 // where the alphas vary.
-class TexturedDielectricBxdf final : public Bxdf {
+class TexturedDielectricBxdf final : public TexturedMicrofacetBxdf<DielectricBxdf> {
 public:
     TexturedDielectricBxdf(bool rough, MicrofacetType dist, float au, float av, MaskingModel masking, float eta,
                            const Color& specR, const Color& specT, const DielectricTextures& t)
-        : rough_(rough), dist_(dist), masking_(masking), au_(au), av_(av), eta_(eta), specR_(specR), specT_(specT),
-          t_(t) {
-        auto scalar = [](const TexturePtr& x, float c, Color (Texture::*f)() const) {
-            return x ? scalarOf(((*x).*f)()) : c;
-        };
-        const float meanU = scalar(t.alphaU, au, &Texture::meanValue), meanV = scalar(t.alphaV, av, &Texture::meanValue);
-        const float minU = scalar(t.alphaU, au, &Texture::minValue), minV = scalar(t.alphaV, av, &Texture::minValue);
-        const float maxU = scalar(t.alphaU, au, &Texture::maxValue), maxV = scalar(t.alphaV, av, &Texture::maxValue);
+        : TexturedMicrofacetBxdf(rough, dist, masking, au, av, t.alphaU, t.alphaV), eta_(eta), specR_(specR),
+          specT_(specT), t_(t) {
+        const AlphaRange& r = range();
         const Color meanR = t.specularReflectance ? t.specularReflectance->meanValue() : specR;
         const Color meanT = t.specularTransmittance ? t.specularTransmittance->meanValue() : specT;
-        alphaTextured_ = rough && (t.alphaU || t.alphaV);
-        const bool anyRough = rough && std::max(maxU, maxV) >= kMinAlpha;
-        const bool anySmooth = !rough || !(std::max(minU, minV) >= kMinAlpha);
         if (eta != 1.f) smoothComp_ = std::make_unique<LobeCompensation>(eta, true);
-        mean_ = std::make_unique<DielectricBxdf>(rough && std::max(meanU, meanV) >= kMinAlpha, dist, meanU, meanV,
-                                                 masking, eta, meanR, meanT);
-        const float amin = std::max(0.f, std::min(minU, minV));
-        if (anyRough) roughPart_ = std::make_unique<DielectricBxdf>(true, dist, amin, amin, masking, eta, meanR, meanT);
-        if (anySmooth) smooth_ = std::make_unique<DielectricBxdf>(false, dist, 0.f, 0.f, masking, eta, meanR, meanT);
+        mean_ = std::make_unique<DielectricBxdf>(r.meanRough, dist, r.meanU, r.meanV, masking, eta, meanR, meanT);
+        if (r.anyRough)
+            roughPart_ = std::make_unique<DielectricBxdf>(true, dist, r.minAlpha, r.minAlpha, masking, eta, meanR, meanT);
+        if (r.anySmooth) smooth_ = std::make_unique<DielectricBxdf>(false, dist, 0.f, 0.f, masking, eta, meanR, meanT);
         flags_ = eta == 1.f ? (kTransmission | kDelta)
-                            : kReflection | kTransmission | (anyRough ? kGlossy : 0u) | (anySmooth ? kDelta : 0u);
-        textured_ = true;
+                            : kReflection | kTransmission | (r.anyRough ? kGlossy : 0u) | (r.anySmooth ? kDelta : 0u);
         continuation_ = std::max(continuationOf(t.specularReflectance ? t.specularReflectance->maxValue() : specR),
                                  continuationOf(t.specularTransmittance ? t.specularTransmittance->maxValue() : specT));
         cacheBounds();
     }
 
     const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
-        const float au = t_.alphaU ? t_.alphaU->evalScalar(uv) : au_;
-        const float av = t_.alphaV ? (t_.alphaV == t_.alphaU ? au : t_.alphaV->evalScalar(uv)) : av_;
+        float au, av;
+        bool rough;
+        alphasAt(uv, au, av, rough);
         const Color r = t_.specularReflectance ? t_.specularReflectance->eval(uv) : specR_;
         const Color tr = t_.specularTransmittance ? t_.specularTransmittance->eval(uv) : specT_;
-        const bool rough = rough_ && std::max(au, av) >= kMinAlpha;  // (makeRoughDielectric's test)
         return emplaceInstance<DielectricBxdf>(storage, capacity, rough, dist_, au, av, masking_, eta_, r, tr,
                                                DielectricBxdf::Instance{smoothComp_.get(), !alphaTextured_});
     }
-    BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override { return mean_->eval(wo, wi, ctx); }
-    bool sample(const Vec3& wo, float uLobe, const Vec2& u, const BsdfContext& ctx, BsdfSample& out) const override {
-        return mean_->sample(wo, uLobe, u, ctx, out);
-    }
-    uint32_t flags() const override { return flags_; }
     bool deltaUnder(const BsdfContext& ctx) const override {
         if (!(flags_ & kGlossy)) return (smooth_ ? smooth_.get() : mean_.get())->deltaUnder(ctx);
         return false;
@@ -426,34 +412,12 @@ public:
         if (roughPart_) b = std::max(b, roughPart_->valueBound(ctx));
         return b;
     }
-    PairGeometry pairGeometry(const Vec3& wo, const Vec3& wi) const override {
-        return alphaTextured_ ? PairGeometry{} : mean_->pairGeometry(wo, wi);
-    }
-    float requestRatio(const PairGeometry& g, const BsdfContext& ctx) const override { return mean_->requestRatio(g, ctx); }
-    float requestPdfRatio(const PairGeometry& g, const RegularizationRequest& r) const override {
-        return mean_->requestPdfRatio(g, r);
-    }
-    float requestRatioBound(const RegularizationRequest& r) const override {
-        return alphaTextured_ ? kInf : mean_->requestRatioBound(r);
-    }
-    float roughness() const override { return mean_->roughness(); }
-    Roughness alpha() const override { return mean_->alpha(); }
-    bool anisotropic() const override {
-        return (rough_ && t_.alphaU != t_.alphaV) || (!t_.alphaU && !t_.alphaV && mean_->anisotropic());
-    }
-    std::string name() const override { return mean_->name() + "(textured)"; }
 
 private:
-    bool rough_;
-    MicrofacetType dist_;
-    MaskingModel masking_;
-    float au_, av_, eta_;
+    float eta_;
     Color specR_, specT_;
     DielectricTextures t_;
     std::unique_ptr<LobeCompensation> smoothComp_;  // the smooth points' (null for eta 1)
-    bool alphaTextured_ = false;
-    uint32_t flags_ = 0;
-    std::unique_ptr<DielectricBxdf> mean_, roughPart_, smooth_;
 };
 
 }  // namespace
