@@ -26,11 +26,12 @@ inline double imageMean(const Image& img) {
     return m / double(img.pixels.size());
 }
 
-// K independent renders (seeds 1..K) -> per-block sample statistics.
-inline std::vector<SampleStats> blockStats(const SceneDesc& d, RenderSettings s, int k, int blocks) {
+// K independent renders (seeds seed0 .. seed0 + K - 1) -> per-block sample statistics.
+inline std::vector<SampleStats> blockStats(const SceneDesc& d, RenderSettings s, int k, int blocks,
+                                           uint64_t seed0 = 1000) {
     std::vector<std::vector<double>> perBlock(size_t(blocks) * blocks);
     for (int i = 0; i < k; ++i) {
-        s.seed = 1000 + i;
+        s.seed = seed0 + uint64_t(i);
         auto m = blockMeans(renderDesc(d, s), blocks, blocks);
         for (size_t b = 0; b < m.size(); ++b) perBlock[b].push_back(m[b]);
     }

@@ -7,6 +7,7 @@
 #include <map>
 #include "integrators/transport/light_paths.h"
 #include "integrators/integrator.h"
+#include "render_compare.h"
 #include "scene_builders.h"
 #include "stats.h"
 
@@ -14,25 +15,6 @@ using namespace lt;
 using namespace lt::test;
 
 namespace {
-
-Image renderWith(const SceneDesc& d, RenderSettings s) {
-    Scene scene(d);
-    RenderStats st;
-    s.quiet = true;
-    return renderImage(scene, s, st);
-}
-
-std::vector<SampleStats> blockStats(const SceneDesc& d, RenderSettings s, int k, int blocks, uint64_t seed0 = 1000) {
-    std::vector<std::vector<double>> per(size_t(blocks) * blocks);
-    for (int i = 0; i < k; ++i) {
-        s.seed = seed0 + i;
-        auto m = blockMeans(renderWith(d, s), blocks, blocks);
-        for (size_t b = 0; b < m.size(); ++b) per[b].push_back(m[b]);
-    }
-    std::vector<SampleStats> out;
-    for (auto& v : per) out.push_back(sampleStats(v));
-    return out;
-}
 
 // Blocks whose means differ at family-wise significance alpha (Welch t, Sidak over blocks x pairs).
 int differing(const std::vector<SampleStats>& a, const std::vector<SampleStats>& b, double alpha, int tests) {
@@ -470,9 +452,9 @@ TEST_CASE("bidirectional images are bit-identical for 1 and 2 threads", "[bpt][d
         s.integrator = integ;
         s.spp = 2;
         s.threads = 1;
-        Image a = renderWith(d, s);
+        Image a = renderDesc(d, s);
         s.threads = 2;
-        Image b = renderWith(d, s);
+        Image b = renderDesc(d, s);
         INFO(integ);
         CHECK(std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(Color)) == 0);
     }

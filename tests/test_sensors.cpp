@@ -232,26 +232,13 @@ TEST_CASE("sensors: PT BPT VCM LT and PPM agree with a thin lens and an orthogra
         s.maxDepth = 4;
         s.integrator = "pt";
         const auto pt = blockStats(d, s, k, blocks);
-        // (blockStats: seeds 1000 + i; the others' seeds differ by the offset below)
-        auto otherStats = [&](const RenderSettings& si, uint64_t seed0) {
-            std::vector<std::vector<double>> per(size_t(blocks) * blocks);
-            for (int i = 0; i < k; ++i) {
-                RenderSettings sj = si;
-                sj.seed = seed0 + i;
-                auto m = blockMeans(renderDesc(d, sj), blocks, blocks);
-                for (size_t j = 0; j < m.size(); ++j) per[j].push_back(m[j]);
-            }
-            std::vector<SampleStats> out;
-            for (auto& v : per) out.push_back(sampleStats(v));
-            return out;
-        };
         // differingBlocks applies Sidak over the 16 blocks: the family level over 16 of the 48 tests
         const double alpha16 = 1.0 - std::pow(1.0 - 0.01, double(blocks * blocks) / tests);
         for (std::string integ : {"bpt", "lt", "vcm"}) {
             s.integrator = integ;
             s.spp = integ == "lt" ? 8 : 4;  // (vcm: the default radius, merges weighted in)
             double worst = 0;
-            const int bad = differingBlocks(otherStats(s, 2000), pt, alpha16, &worst);
+            const int bad = differingBlocks(blockStats(d, s, k, blocks, 2000), pt, alpha16, &worst);
             INFO("sensor " << int(type) << ": " << integ << " vs pt, worst |t| / critical " << worst);
             CHECK(bad == 0);
         }
