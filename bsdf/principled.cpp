@@ -26,19 +26,99 @@
 // Inside only the specular lobe: reflection with probability F(m). The choice never depends on
 // anything but (wo, m), so the mixture density below is the sampler's exactly.
 // The model is reciprocal with the Radiance scaling: f_rad(wo, wi) = f_imp(wi, wo).
-// Regularisation requests change nothing (as for Lambert): no lobe is a delta (alpha >= 0.001).
+// Regularisation (bsdf.h's requests, JG19 and OPSR): the main lobe and the clearcoat are resolved
+// each on its own (principled.h), the diffuse and sheen lobes are left as they are. The main
+// reflection and transmission share one distribution (the sampler draws m before choosing), so
+// the main lobe takes per axis the larger of the two lobes' resolved alphas (as the rough
+// dielectric's sampler). Glossy lobes are not energy-compensated (energy_compensation.h: as the
+// glossy dielectric, whose reflection and refraction share the Fresnel split). No lobe is a delta
+// (alpha >= 0.001), so KD13's cones change nothing.
 #include "bsdf/principled.h"
+
+#include <algorithm>
+#include <numbers>
 
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
+#include "bsdf/roughness_bound.h"
 #include "core/sampling.h"
 #include "core/texture/texture.h"
 
 namespace lt {
 
+namespace principled_detail {
+
+float gtr1Peak(float alpha) {
+    const double a2 = double(alpha) * double(alpha);
+    return float((1.0 - a2) / (std::numbers::pi * a2 * std::log(1.0 / a2)));
+}
+
+float gtr1AlphaForBound(float bound) {
+    if (!(bound < kInf)) return 0.f;
+    if (gtr1Peak(kMaxGtr1Alpha) > bound) return kMaxGtr1Alpha;
+    // (gtr1Peak falls strictly on (0, 1): bisection in log alpha, hi always meets the bound)
+    double lo = std::log(1e-6), hi = std::log(double(kMaxGtr1Alpha));
+    for (int i = 0; i < 40; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (gtr1Peak(float(std::exp(mid))) <= bound ? hi : lo) = mid;
+    }
+    return float(std::exp(hi));
+}
+
+float resolveGtr1(float alpha, float weight, const RegularizationRequest& r) {
+    float a = std::max({alpha, r.minAlpha.alphaU, r.minAlpha.alphaV});
+    if (r.tau < kInf && weight > 0.f) a = std::max(a, gtr1AlphaForBound(r.tau / weight));
+    return std::min(a, kMaxGtr1Alpha);
+}
+
+MicrofacetLobe::Resolved resolveWeighted(const MicrofacetLobe& lobe, float weight, const RegularizationRequest& r,
+                                         bool transmission, float eta) {
+    RegularizationRequest q = r;
+    if (q.tau < kInf) q.tau = weight > 0.f ? q.tau / weight : kInf;
+    return lobe.resolve(q, transmission, eta);
+}
+
+float diffuseShapeBound(float roughness) {
+    const float rr = 2.f * roughness;
+    return std::max({1.f, 0.5f + rr, 0.25f + rr * (1.f + rr)});
+}
+
+}  // namespace principled_detail
+
 namespace {
 
 using namespace principled_detail;
+
+// What the value bound (Bxdf::valueBound) of a principled material is made of: the smallest main
+// alpha (the anisotropic lobe's smaller one), the transmission's and the clearcoat's weights, the
+// clearcoat's smallest alpha and the diffuse and sheen lobes' bound (+inf with flatness: the
+// flattened form has none). A textured material takes each at its worst over the textures.
+struct PrincipledBound {
+    float mainAlpha, transWeight, ccWeight, ccAlpha, diffuse, eta;
+
+    // sup f under r: the larger of a reflection pair's (main + clearcoat + diffuse) and a
+    // transmission pair's (transmission only), each microfacet lobe resolved as the model does
+    // (PrincipledBxdf::lobesFor; its smaller axis is resolved from mainAlpha here). The
+    // reflection's term takes the reflection's own alpha_hat, not the larger one a refraction may
+    // add: so it also bounds a textured material's points that do not refract.
+    float value(const RegularizationRequest& r) const {
+        const MicrofacetLobe lobe{MicrofacetType::GGX, MaskingModel::Smith, mainAlpha, mainAlpha};
+        const float aR = resolveWeighted(lobe, 1.f, r, false, 1.f).u;
+        float refl = maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, aR, false, 1.f, r.bound) + diffuse;
+        if (ccWeight > 0.f) refl += ccWeight * gtr1Peak(resolveGtr1(ccAlpha, ccWeight, r));
+        if (!(transWeight > 0.f)) return refl;
+        const float a = std::max(aR, resolveWeighted(lobe, transWeight, r, true, eta).u);
+        return std::max(refl, transWeight * maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, a, true, eta, r.bound));
+    }
+    // The largest bound under which a request changes a lobe: the microfacet lobes' own bounds.
+    float changeable(BoundForm form) const {
+        float b = maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, mainAlpha, false, 1.f, form);
+        if (transWeight > 0.f)
+            b = std::max(b, transWeight * maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, mainAlpha, true, eta, form));
+        if (ccWeight > 0.f) b = std::max(b, ccWeight * gtr1Peak(ccAlpha));
+        return b;
+    }
+};
 
 class PrincipledBxdf final : public Bxdf {
 public:
@@ -49,27 +129,44 @@ public:
           cc_{clearcoatAlpha(p.clearcoatGloss)} {
         brdf_ = (1.f - p.metallic) * (1.f - p.specTrans);
         bsdf_ = (1.f - p.metallic) * p.specTrans;
-        const float lum = mitsubaLuminance(p.baseColor);
-        tint_ = lum > 0.f ? p.baseColor / lum : Color(1.f);
-        sheenColor_ = Color(1.f) + (tint_ - Color(1.f)) * p.sheenTint;
+        tint_ = tintOf(p.baseColor);
+        sheenColor_ = sheenColour(p.baseColor, p.sheenTint);
         sqrtBase_ = Color(std::sqrt(p.baseColor.x), std::sqrt(p.baseColor.y), std::sqrt(p.baseColor.z));
+        bound_ = ownBound();
     }
     explicit PrincipledBxdf(const PrincipledParams& p) : PrincipledBxdf(p, Instance{}) {
         continuation_ = 1.f;  // the main reflection is a dielectric's of scale 1 (Fresnel alone weights it)
         cacheBounds();
-        // (requests change nothing: no bound a regulariser asks for changes this BSDF)
-        changeableBound_[0] = changeableBound_[1] = 0.f;
+        for (BoundForm f : {BoundForm::Tight, BoundForm::Published}) changeableBound_[int(f)] = bound_.changeable(f);
+    }
+    // Mitsuba's tint (the base colour over its luminance) and the sheen's colour.
+    static Color tintOf(const Color& base) {
+        const float lum = mitsubaLuminance(base);
+        return lum > 0.f ? base / lum : Color(1.f);
+    }
+    static Color sheenColour(const Color& base, float sheenTint) {
+        return Color(1.f) + (tintOf(base) - Color(1.f)) * sheenTint;
+    }
+    // The bound's terms of this model (the diffuse and sheen lobes' exactly).
+    PrincipledBound ownBound() const {
+        float diffuse = 0.f;
+        if (brdf_ > 0.f) {
+            diffuse = p_.flatness > 0.f ? kInf : brdf_ * maxComp(p_.baseColor) * kInvPi * diffuseShapeBound(p_.roughness);
+            if (p_.sheen > 0.f) diffuse += p_.sheen * (1.f - p_.metallic) * maxComp(sheenColor_);
+        }
+        return {std::min(mf_.alphaU(), mf_.alphaV()), bsdf_, 0.25f * p_.clearcoat, cc_.alpha, diffuse, p_.eta};
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         BsdfEval e;
         Pair q;
+        const Lobes l = lobesFor(ctx.reg);
         if (!pair(wo, wi, q)) return e;
-        e.f = value(wo, wi, q, ctx.mode);
+        e.f = value(wo, wi, q, ctx.mode, l);
         if (ctx.valueOnly) return e;
-        e.pdfFwd = SolidAnglePdf(density(wo, wi, q));
+        e.pdfFwd = SolidAnglePdf(density(wo, wi, q, l));
         Pair r;
-        if (pair(wi, wo, r)) e.pdfRev = SolidAnglePdf(density(wi, wo, r));
+        if (pair(wi, wo, r)) e.pdfRev = SolidAnglePdf(density(wi, wo, r, l));
         return e;
     }
 
@@ -79,8 +176,9 @@ public:
         if (!front && !(bsdf_ > 0.f)) return false;
         const float s = front ? 1.f : -1.f;
         const Vec3 o = wo * s;
+        const Lobes l = lobesFor(ctx.reg);
         float uExtra = 0.f;
-        const Vec3 m = mf_.sampleVisible(o, u, uExtra);
+        const Vec3 m = l.main.sampleVisible(o, u, uExtra);
         const float F = fresnelDielectric(glm::dot(wo, m), p_.eta);
         Probs pr;
         if (!probs(front, F, pr)) return false;
@@ -91,7 +189,7 @@ public:
             wi = sampleCosineHemisphere(u);
             lobe = kReflection | kDiffuse;
         } else if (uLobe < pr.diffuse + pr.clearcoat) {
-            const Vec3 mc = cc_.sample(u);
+            const Vec3 mc = l.cc.sample(u);
             wi = reflectAbout(wo, mc);
             if (!(glm::dot(wo, mc) * s > 0.f) || !(glm::dot(wi, mc) * s > 0.f)) return false;
             lobe = kReflection | kGlossy;
@@ -109,19 +207,19 @@ public:
         if (!(wi.z * wo.z < 0.f) && (lobe & kTransmission)) return false;
         Pair q;
         if (!pair(wo, wi, q)) return false;
-        const float pdf = density(wo, wi, q);
+        const float pdf = density(wo, wi, q, l);
         if (!(pdf > 0.f) || !std::isfinite(pdf)) return false;
         if (ctx.directionOnly) {
             out.wi = wi;
             return true;
         }
-        const Color w = value(wo, wi, q, ctx.mode) * (std::abs(wi.z) / pdf);
+        const Color w = value(wo, wi, q, ctx.mode, l) * (std::abs(wi.z) / pdf);
         if (!std::isfinite(w.x + w.y + w.z)) return false;
         out.wi = wi;
         out.weight = w;
         out.pdfFwd = SolidAnglePdf(pdf);
         Pair r;
-        out.pdfRev = SolidAnglePdf(pair(wi, wo, r) ? density(wi, wo, r) : 0.f);
+        out.pdfRev = SolidAnglePdf(pair(wi, wo, r) ? density(wi, wo, r, l) : 0.f);
         out.lobe = lobe;
         out.eta = eta;
         return true;
@@ -139,11 +237,28 @@ public:
         return r;
     }
     Roughness alpha() const override { return {mf_.alphaU(), mf_.alphaV()}; }
-    // (no finite bound is derived: GTR1 and the clearcoat's form grow without one as alpha falls)
-    float valueBound(const BsdfContext&) const override { return kInf; }
+    float valueBound(const BsdfContext& ctx) const override { return bound_.value(ctx.reg); }
     std::string name() const override { return "principled"; }
 
 private:
+    // The two microfacet lobes of one call: the material's, or as a request resolves them.
+    struct Lobes {
+        Microfacet main;
+        Gtr1 cc;
+    };
+    Lobes lobesFor(const RegularizationRequest& r) const {
+        if (r.empty()) return {mf_, cc_};
+        const MicrofacetLobe own{MicrofacetType::GGX, MaskingModel::Smith, mf_.alphaU(), mf_.alphaV()};
+        MicrofacetLobe::Resolved a = resolveWeighted(own, 1.f, r, false, 1.f);
+        if (bsdf_ > 0.f) {
+            const MicrofacetLobe::Resolved t = resolveWeighted(own, bsdf_, r, true, p_.eta);
+            a.u = std::max(a.u, t.u);
+            a.v = std::max(a.v, t.v);
+        }
+        const float cc = p_.clearcoat > 0.f ? resolveGtr1(cc_.alpha, 0.25f * p_.clearcoat, r) : cc_.alpha;
+        return {Microfacet(MicrofacetType::GGX, a.u, a.v), Gtr1{cc}};
+    }
+
     // What eval and the density share for one ordered pair.
     struct Pair {
         bool front, reflect;
@@ -183,11 +298,11 @@ private:
         return true;
     }
 
-    Color value(const Vec3& wo, const Vec3& wi, const Pair& q, TransportMode mode) const {
+    Color value(const Vec3& wo, const Vec3& wi, const Pair& q, TransportMode mode, const Lobes& l) const {
         Color f(0.f);
         const float co = std::abs(wo.z), ci = std::abs(wi.z);
         if ((q.compatR && q.F > 0.f) || (q.compatT && q.F < 1.f)) {
-            const float dg = mf_.D(q.h) * mf_.G1(wo, q.h) * mf_.G1(wi, q.h);
+            const float dg = l.main.D(q.h) * l.main.G1(wo, q.h) * l.main.G1(wi, q.h);
             if (q.compatR) {
                 Color fp(0.f);
                 if (q.front) {
@@ -211,7 +326,7 @@ private:
         if (!q.front || !q.reflect) return f;
         if (q.compatR && p_.clearcoat > 0.f) {
             const float fcc = schlick(0.04f, q.oh, p_.eta);
-            f += Color(0.25f * p_.clearcoat * fcc * cc_.D(q.h) * smithGgx1(wo, q.h, 0.25f) * smithGgx1(wi, q.h, 0.25f));
+            f += Color(0.25f * p_.clearcoat * fcc * l.cc.D(q.h) * smithGgx1(wo, q.h, 0.25f) * smithGgx1(wi, q.h, 0.25f));
         }
         if (brdf_ > 0.f) {
             const float fo = schlickWeight(ci), fi = schlickWeight(co);
@@ -256,20 +371,20 @@ private:
     }
 
     // The mixture density of sampling wi given wo.
-    float density(const Vec3& wo, const Vec3& wi, const Pair& q) const {
+    float density(const Vec3& wo, const Vec3& wi, const Pair& q, const Lobes& l) const {
         Probs pr;
         if (!probs(q.front, q.F, pr)) return 0.f;
         const Vec3 o = q.front ? wo : -wo;
         float pdf = 0.f;
         if (q.compatR) {
             const float jac = 1.f / (4.f * std::abs(q.ih));
-            pdf += pr.reflection * mf_.pdfVisible(o, q.h) * jac;
-            if (pr.clearcoat > 0.f) pdf += pr.clearcoat * cc_.pdf(q.h) * jac;
+            pdf += pr.reflection * l.main.pdfVisible(o, q.h) * jac;
+            if (pr.clearcoat > 0.f) pdf += pr.clearcoat * l.cc.pdf(q.h) * jac;
         }
         if (q.compatT && pr.transmission > 0.f) {
             const float den = q.oh + q.etaPath * q.ih;
             const float jac = q.etaPath * q.etaPath * std::abs(q.ih) / (den * den);
-            pdf += pr.transmission * mf_.pdfVisible(o, q.h) * jac;
+            pdf += pr.transmission * l.main.pdfVisible(o, q.h) * jac;
         }
         if (q.front && q.reflect) pdf += pr.diffuse * std::max(0.f, wi.z) * kInvPi;
         return std::isfinite(pdf) ? pdf : 0.f;
@@ -280,6 +395,7 @@ private:
     Gtr1 cc_;
     float brdf_ = 0.f, bsdf_ = 0.f;
     Color tint_{1.f}, sheenColor_{1.f}, sqrtBase_{0.f};
+    PrincipledBound bound_{};
 };
 
 // principled with textured parameters: the model at a point is the untextured one of the point's
@@ -290,6 +406,7 @@ public:
     TexturedPrincipledBxdf(const PrincipledParams& p, const PrincipledTextures& t)
         : p_(p), t_(t), mean_(at(&Texture::meanValue), PrincipledBxdf::Instance{}) {
         const PrincipledParams lo = at(&Texture::minValue), hi = at(&Texture::maxValue);
+        bound_ = worstBound(lo, hi);
         flags_ = kReflection | kGlossy;
         if ((1.f - lo.metallic) * (1.f - lo.specTrans) > 0.f) flags_ |= kDiffuse;
         if ((1.f - lo.metallic) * hi.specTrans > 0.f) flags_ |= kTransmission;
@@ -300,7 +417,7 @@ public:
         textured_ = true;
         continuation_ = 1.f;
         cacheBounds();
-        changeableBound_[0] = changeableBound_[1] = 0.f;
+        for (BoundForm f : {BoundForm::Tight, BoundForm::Published}) changeableBound_[int(f)] = bound_.changeable(f);
     }
     const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
         const PrincipledParams q = resolved([&](const Texture& x) { return x.eval(uv); },
@@ -315,10 +432,28 @@ public:
     float roughness() const override { return roughness_; }
     Roughness alpha() const override { return mean_.alpha(); }
     bool anisotropic() const override { return anisotropic_; }
-    float valueBound(const BsdfContext&) const override { return kInf; }
+    float valueBound(const BsdfContext& ctx) const override { return bound_.value(ctx.reg); }
     std::string name() const override { return "principled(textured)"; }
 
 private:
+    // The bound's terms at their worst over the textures' ranges [lo, hi] (every point's model's
+    // bound is at most the material's: each term grows with the weights and falls with the alphas).
+    PrincipledBound worstBound(const PrincipledParams& lo, const PrincipledParams& hi) const {
+        const float brdf = (1.f - lo.metallic) * (1.f - lo.specTrans);
+        float diffuse = 0.f;
+        if (brdf > 0.f) {
+            diffuse = hi.flatness > 0.f ? kInf : brdf * maxComp(hi.baseColor) * kInvPi * diffuseShapeBound(hi.roughness);
+            if (hi.sheen > 0.f) {
+                // (the sheen's tint is base / luminance(base): no bound from a textured base's range)
+                float tint = 1.f;
+                if (hi.sheenTint > 0.f) tint = t_.baseColor ? kInf : maxComp(PrincipledBxdf::sheenColour(p_.baseColor, hi.sheenTint));
+                diffuse += hi.sheen * (1.f - lo.metallic) * std::max(1.f, tint);
+            }
+        }
+        const Roughness a = mainAlphas(lo.roughness, hi.anisotropic);
+        return {std::min(a.alphaU, a.alphaV), (1.f - lo.metallic) * hi.specTrans, 0.25f * hi.clearcoat,
+                clearcoatAlpha(hi.clearcoatGloss), diffuse, p_.eta};
+    }
     // The parameters with each texture replaced by one of its statistics.
     PrincipledParams at(Color (Texture::*stat)() const) const {
         return resolved([&](const Texture& x) { return (x.*stat)(); },
@@ -347,6 +482,7 @@ private:
     PrincipledParams p_;
     PrincipledTextures t_;
     PrincipledBxdf mean_;
+    PrincipledBound bound_{};
     uint32_t flags_ = 0;
     float roughness_ = 1.f;
     bool anisotropic_ = false;

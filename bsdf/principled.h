@@ -81,9 +81,11 @@ T schlick(const T& r0, float cosI, float eta) {
 // Burley's GTR1 ("Berry") distribution of the clearcoat, normalised as integral D cos = 1.
 struct Gtr1 {
     float alpha;
+    // (1 + (a^2 - 1) cos^2 written as a^2 cos^2 + sin^2: no cancellation at the peak of a sharp lobe,
+    // where the former loses the few digits a^2 ~ 1e-6 has against 1)
     float D(const Vec3& m) const {
-        const float a2 = alpha * alpha, c2 = m.z * m.z;
-        const float d = (a2 - 1.f) / (kPi * std::log(a2) * (1.f + (a2 - 1.f) * c2));
+        const float a2 = alpha * alpha, c2 = m.z * m.z, s2 = m.x * m.x + m.y * m.y;
+        const float d = (a2 - 1.f) / (kPi * std::log(a2) * (a2 * c2 + s2));
         return d * m.z > 1e-20f ? d : 0.f;
     }
     float pdf(const Vec3& m) const { return m.z > 0.f ? m.z * D(m) : 0.f; }
@@ -112,6 +114,29 @@ inline Roughness mainAlphas(float roughness, float anisotropic) {
     return {std::max(0.001f, r2 / aspect), std::max(0.001f, r2 * aspect)};
 }
 inline float clearcoatAlpha(float gloss) { return lerpf(0.1f, 0.001f, gloss); }
+
+// ---- Regularisation (bsdf.h's requests): each microfacet lobe is resolved on its own ----------
+// A lobe's value is w f, w its weight (spec_trans, clearcoat: the mixture's, colour and Fresnel
+// left out as for the conductors, bsdf.h) and f its Fresnel- and colour-free form; under a bound
+// tau its alphas are raised until w rho_bar(alpha) <= tau, i.e. the lobe meets tau / w.
+
+// GTR1's largest value D(n) = (1 - a^2) / (pi a^2 ln(1 / a^2)) (Gtr1::D at m = n): the clearcoat
+// is 0.25 clearcoat Schlick D G1 G1 without a 1 / (4 cos cos), so this times its weight bounds it.
+float gtr1Peak(float alpha);
+// GTR1's alphas stop below 1, where D is 0 / 0 (the uniform distribution's 1 / pi is the limit).
+inline constexpr float kMaxGtr1Alpha = 0.99f;
+// The least alpha in (0, kMaxGtr1Alpha] with gtr1Peak(alpha) <= bound (kMaxGtr1Alpha where none).
+float gtr1AlphaForBound(float bound);
+// A GTR1 lobe of alpha a and weight w under request r: max(a, the larger minAlpha, the alpha of
+// tau / w), at most kMaxGtr1Alpha.
+float resolveGtr1(float alpha, float weight, const RegularizationRequest& r);
+// A GGX/Smith lobe of weight w under request r (MicrofacetLobe::resolve with tau / w).
+MicrofacetLobe::Resolved resolveWeighted(const MicrofacetLobe& lobe, float weight, const RegularizationRequest& r,
+                                         bool transmission, float eta);
+// The supremum of the Disney diffuse lobe's shape factor (1 - Fo/2)(1 - Fi/2) + rr (Fo + Fi +
+// Fo Fi (rr - 1)), rr = 2 roughness cos_d^2 <= 2 roughness: bilinear in (Fo, Fi) in [0, 1]^2, so
+// its largest corner. (The flattened form has none: 1 / (cos_o + cos_i) at grazing pairs.)
+float diffuseShapeBound(float roughness);
 
 }  // namespace principled_detail
 

@@ -15,10 +15,12 @@
 // symmetric in (wo, wi), so the model is not reciprocal near its edge: Importance mode evaluates
 // the Radiance model with the directions swapped (f*(wo, wi) = f(wo -> wi), bsdf.h), and a sample's
 // weight there is that value over the sampling density. No light is bent: a transmission's eta is 1.
-// Regularisation requests change nothing.
+// Regularisation (bsdf.h's requests): the two specular lobes, both of the reflection's form, are
+// resolved each on its own with weight spec_trans (principled.h); the diffuse lobes stay.
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/principled.h"
+#include "bsdf/roughness_bound.h"
 #include "core/sampling.h"
 #include "core/texture/texture.h"
 
@@ -32,6 +34,28 @@ Roughness thinTransAlphas(float roughness, float anisotropic, float eta) {
     return mainAlphas((0.65f * eta - 0.35f) * roughness, anisotropic);
 }
 
+// What the value bound of a principledthin material is made of (as principled.cpp's
+// PrincipledBound): the smaller alpha of each specular lobe, their weight spec_trans, and the
+// diffuse lobes' bounds on a reflection pair (+inf with flatness) and a transmission pair.
+struct ThinBound {
+    float reflAlpha, transAlpha, weight, diffuseR, diffuseT;
+
+    static float lobe(float alpha, float weight, const RegularizationRequest& r) {
+        const MicrofacetLobe l{MicrofacetType::GGX, MaskingModel::Smith, alpha, alpha};
+        const float a = resolveWeighted(l, weight, r, false, 1.f).u;
+        return weight * maxValueBound(MicrofacetType::GGX, MaskingModel::Smith, a, false, 1.f, r.bound);
+    }
+    float value(const RegularizationRequest& r) const {
+        if (!(weight > 0.f)) return std::max(diffuseR, diffuseT);
+        return std::max(lobe(reflAlpha, weight, r) + diffuseR, lobe(transAlpha, weight, r) + diffuseT);
+    }
+    float changeable(BoundForm form) const {
+        RegularizationRequest plain;
+        plain.bound = form;
+        return weight > 0.f ? std::max(lobe(reflAlpha, weight, plain), lobe(transAlpha, weight, plain)) : 0.f;
+    }
+};
+
 class PrincipledThinBxdf final : public Bxdf {
 public:
     struct Instance {};
@@ -42,21 +66,30 @@ public:
                thinTransAlphas(p.roughness, p.anisotropic, p.eta).alphaV) {
         const float lum = mitsubaLuminance(p.baseColor);
         tint_ = lum > 0.f ? p.baseColor / lum : Color(1.f);
-        sheenColor_ = Color(1.f) + (tint_ - Color(1.f)) * p.sheenTint;
+        sheenColor_ = sheenColour(p.sheenTint);
+        const float diffR = (1.f - p.specTrans) * (1.f - p.diffTrans);
+        float dR = 0.f;
+        if (diffR > 0.f) {
+            dR = p.flatness > 0.f ? kInf : diffR * maxComp(p.baseColor) * kInvPi * diffuseShapeBound(p.roughness);
+            if (p.sheen > 0.f) dR += p.sheen * diffR * maxComp(sheenColor_);
+        }
+        bound_ = {std::min(mfR_.alphaU(), mfR_.alphaV()), std::min(mfT_.alphaU(), mfT_.alphaV()), p.specTrans, dR,
+                  (1.f - p.specTrans) * p.diffTrans * maxComp(p.baseColor) * kInvPi};
     }
     explicit PrincipledThinBxdf(const PrincipledThinParams& p) : PrincipledThinBxdf(p, Instance{}) {
         continuation_ = 1.f;  // (the specular lobes' Fresnel weights are those of a dielectric of scale 1)
         cacheBounds();
-        changeableBound_[0] = changeableBound_[1] = 0.f;
+        for (BoundForm f : {BoundForm::Tight, BoundForm::Published}) changeableBound_[int(f)] = bound_.changeable(f);
     }
 
     BsdfEval eval(const Vec3& wo, const Vec3& wi, const BsdfContext& ctx) const override {
         BsdfEval e;
         if (wo.z == 0.f || wi.z == 0.f) return e;
-        e.f = ctx.mode == TransportMode::Radiance ? valueAny(wo, wi) : valueAny(wi, wo);
+        const Lobes l = lobesFor(ctx.reg);
+        e.f = ctx.mode == TransportMode::Radiance ? valueAny(wo, wi, l) : valueAny(wi, wo, l);
         if (ctx.valueOnly) return e;
-        e.pdfFwd = SolidAnglePdf(pdfAny(wo, wi));
-        e.pdfRev = SolidAnglePdf(pdfAny(wi, wo));
+        e.pdfFwd = SolidAnglePdf(pdfAny(wo, wi, l));
+        e.pdfRev = SolidAnglePdf(pdfAny(wi, wo, l));
         return e;
     }
 
@@ -66,16 +99,17 @@ public:
         const Vec3 o = wo * s;
         Probs pr;
         if (!probs(pr)) return false;
+        const Lobes l = lobesFor(ctx.reg);
         Vec3 i;
         uint32_t lobe;
         float uExtra = 0.f;
         if (uLobe < pr.specR) {
-            const Vec3 m = mfR_.sampleVisible(o, u, uExtra);
+            const Vec3 m = l.refl.sampleVisible(o, u, uExtra);
             i = reflectAbout(o, m);
             if (!(i.z > 0.f) || !(glm::dot(o, m) > 0.f) || !(glm::dot(i, m) > 0.f)) return false;
             lobe = kReflection | kGlossy;
         } else if (uLobe < pr.specR + pr.specT) {
-            const Vec3 m = mfT_.sampleVisible(o, u, uExtra);
+            const Vec3 m = l.trans.sampleVisible(o, u, uExtra);
             i = reflectAbout(o, m);
             i.z = -i.z;
             if (!(i.z < 0.f) || !(glm::dot(o, m) > 0.f) || !(glm::dot(i, m) < 0.f)) return false;
@@ -89,19 +123,19 @@ public:
         }
         if (i.z == 0.f) return false;
         const Vec3 wi = i * s;
-        const float pdf = pdfFront(o, i);
+        const float pdf = pdfFront(o, i, l);
         if (!(pdf > 0.f) || !std::isfinite(pdf)) return false;
         if (ctx.directionOnly) {
             out.wi = wi;
             return true;
         }
-        const Color f = ctx.mode == TransportMode::Radiance ? valueAny(wo, wi) : valueAny(wi, wo);
+        const Color f = ctx.mode == TransportMode::Radiance ? valueAny(wo, wi, l) : valueAny(wi, wo, l);
         const Color w = f * (std::abs(i.z) / pdf);
         if (!std::isfinite(w.x + w.y + w.z)) return false;
         out.wi = wi;
         out.weight = w;
         out.pdfFwd = SolidAnglePdf(pdf);
-        out.pdfRev = SolidAnglePdf(pdfAny(wi, wo));
+        out.pdfRev = SolidAnglePdf(pdfAny(wi, wo, l));
         out.lobe = lobe;
         out.eta = 1.f;
         return true;
@@ -121,10 +155,25 @@ public:
         return std::min(scalarRoughness(mfR_.alphaU(), mfR_.alphaV()), scalarRoughness(mfT_.alphaU(), mfT_.alphaV()));
     }
     Roughness alpha() const override { return {mfR_.alphaU(), mfR_.alphaV()}; }
-    float valueBound(const BsdfContext&) const override { return kInf; }
+    float valueBound(const BsdfContext& ctx) const override { return bound_.value(ctx.reg); }
     std::string name() const override { return "principledthin"; }
+    // The sheen's colour with this model's tint and sheen_tint t.
+    Color sheenColour(float t) const { return Color(1.f) + (tint_ - Color(1.f)) * t; }
 
 private:
+    // The specular lobes of one call: the material's, or as a request resolves each.
+    struct Lobes {
+        Microfacet refl, trans;
+    };
+    Lobes lobesFor(const RegularizationRequest& r) const {
+        if (r.empty()) return {mfR_, mfT_};
+        auto resolve = [&](const Microfacet& m) {
+            const MicrofacetLobe own{MicrofacetType::GGX, MaskingModel::Smith, m.alphaU(), m.alphaV()};
+            const MicrofacetLobe::Resolved a = resolveWeighted(own, p_.specTrans, r, false, 1.f);
+            return Microfacet(MicrofacetType::GGX, a.u, a.v);
+        };
+        return {resolve(mfR_), resolve(mfT_)};
+    }
     struct Probs {
         float specR = 0.f, specT = 0.f, diffR = 0.f, diffT = 0.f;
     };
@@ -151,17 +200,17 @@ private:
         h /= len;
         return true;
     }
-    Color valueAny(const Vec3& a, const Vec3& b) const {
+    Color valueAny(const Vec3& a, const Vec3& b, const Lobes& l) const {
         const float s = a.z > 0.f ? 1.f : -1.f;
-        return valueFront(a * s, b * s);
+        return valueFront(a * s, b * s, l);
     }
-    float pdfAny(const Vec3& a, const Vec3& b) const {
+    float pdfAny(const Vec3& a, const Vec3& b, const Lobes& l) const {
         if (a.z == 0.f || b.z == 0.f) return 0.f;
         const float s = a.z > 0.f ? 1.f : -1.f;
-        return pdfFront(a * s, b * s);
+        return pdfFront(a * s, b * s, l);
     }
     // f for o above (the side the model is defined on), i anywhere.
-    Color valueFront(const Vec3& o, const Vec3& i) const {
+    Color valueFront(const Vec3& o, const Vec3& i, const Lobes& l) const {
         Color f(0.f);
         Vec3 h;
         if (i.z == 0.f || !half(o, i, h)) return f;
@@ -177,10 +226,10 @@ private:
                     const float r0 = (p_.eta - 1.f) / (p_.eta + 1.f);
                     fp = Color(fs) + (schlick(tint_ * (r0 * r0), oh, p_.eta) - Color(fs)) * p_.specTint;
                 }
-                const float dg = mfR_.D(h) * mfR_.G1(o, h) * mfR_.G1(i, h);
+                const float dg = l.refl.D(h) * l.refl.G1(o, h) * l.refl.G1(i, h);
                 f += fp * (st * dg / (4.f * co * ci));
             } else if (!reflect && ih < 0.f) {
-                const float dg = mfT_.D(h) * mfT_.G1(o, h) * mfT_.G1(i, h);
+                const float dg = l.trans.D(h) * l.trans.G1(o, h) * l.trans.G1(i, h);
                 f += p_.baseColor * (st * (1.f - F) * dg / (4.f * co * ci));
             }
         }
@@ -201,7 +250,7 @@ private:
         if (!reflect && st < 1.f && dt > 0.f) f += p_.baseColor * ((1.f - st) * dt * kInvPi);
         return f;
     }
-    float pdfFront(const Vec3& o, const Vec3& i) const {
+    float pdfFront(const Vec3& o, const Vec3& i, const Lobes& l) const {
         Probs pr;
         if (i.z == 0.f || !probs(pr)) return 0.f;
         const bool reflect = i.z > 0.f;
@@ -210,8 +259,8 @@ private:
         if (p_.specTrans > 0.f && half(o, i, h)) {
             const float oh = glm::dot(o, h), ih = glm::dot(i, h);
             const float jac = 1.f / (4.f * std::abs(glm::dot(Vec3(i.x, i.y, std::abs(i.z)), h)));
-            if (oh > 0.f && reflect && ih > 0.f) pdf += pr.specR * mfR_.pdfVisible(o, h) * jac;
-            if (oh > 0.f && !reflect && ih < 0.f) pdf += pr.specT * mfT_.pdfVisible(o, h) * jac;
+            if (oh > 0.f && reflect && ih > 0.f) pdf += pr.specR * l.refl.pdfVisible(o, h) * jac;
+            if (oh > 0.f && !reflect && ih < 0.f) pdf += pr.specT * l.trans.pdfVisible(o, h) * jac;
         }
         return std::isfinite(pdf) ? pdf : 0.f;
     }
@@ -219,6 +268,7 @@ private:
     PrincipledThinParams p_;
     Microfacet mfR_, mfT_;
     Color tint_{1.f}, sheenColor_{1.f};
+    ThinBound bound_{};
 };
 
 // principledthin with textured parameters (as TexturedPrincipledBxdf): the point's model at atUv,
@@ -235,17 +285,30 @@ public:
             if (hi.diffTrans > 0.f) flags_ |= kDiffuse | kTransmission;
         }
         roughness_ = 1.f;
-        if (hi.specTrans > 0.f) {
-            const Roughness a = mainAlphas(lo.roughness, hi.anisotropic);
-            const float etaScale = std::min(std::abs(0.65f * lo.eta - 0.35f), std::abs(0.65f * hi.eta - 0.35f));
-            const Roughness b = mainAlphas(etaScale * lo.roughness, hi.anisotropic);
+        const Roughness a = mainAlphas(lo.roughness, hi.anisotropic);
+        const float etaScale = std::min(std::abs(0.65f * lo.eta - 0.35f), std::abs(0.65f * hi.eta - 0.35f));
+        const Roughness b = mainAlphas(etaScale * lo.roughness, hi.anisotropic);
+        if (hi.specTrans > 0.f)
             roughness_ = std::min(scalarRoughness(a.alphaU, a.alphaV), scalarRoughness(b.alphaU, b.alphaV));
-        }
         anisotropic_ = hi.anisotropic > 0.f;
         textured_ = true;
         continuation_ = 1.f;
+        // The bound's terms at their worst over the textures' ranges (as TexturedPrincipledBxdf's;
+        // the sheen's tint has no bound from a textured base's range).
+        const float diffR = (1.f - lo.specTrans) * (1.f - lo.diffTrans);
+        float dR = 0.f;
+        if (diffR > 0.f) {
+            dR = hi.flatness > 0.f ? kInf : diffR * maxComp(hi.baseColor) * kInvPi * diffuseShapeBound(hi.roughness);
+            if (hi.sheen > 0.f) {
+                float tint = 1.f;
+                if (hi.sheenTint > 0.f) tint = t_.baseColor ? kInf : maxComp(mean_.sheenColour(hi.sheenTint));
+                dR += hi.sheen * diffR * std::max(1.f, tint);
+            }
+        }
+        bound_ = {std::min(a.alphaU, a.alphaV), std::min(b.alphaU, b.alphaV), hi.specTrans, dR,
+                  (1.f - lo.specTrans) * hi.diffTrans * maxComp(hi.baseColor) * kInvPi};
         cacheBounds();
-        changeableBound_[0] = changeableBound_[1] = 0.f;
+        for (BoundForm f : {BoundForm::Tight, BoundForm::Published}) changeableBound_[int(f)] = bound_.changeable(f);
     }
     const Bxdf* atUv(const Vec2& uv, void* storage, size_t capacity) const override {
         const PrincipledThinParams q = resolved([&](const Texture& x) { return x.eval(uv); },
@@ -260,7 +323,7 @@ public:
     float roughness() const override { return roughness_; }
     Roughness alpha() const override { return mean_.alpha(); }
     bool anisotropic() const override { return anisotropic_; }
-    float valueBound(const BsdfContext&) const override { return kInf; }
+    float valueBound(const BsdfContext& ctx) const override { return bound_.value(ctx.reg); }
     std::string name() const override { return "principledthin(textured)"; }
 
 private:
@@ -290,6 +353,7 @@ private:
     PrincipledThinParams p_;
     PrincipledThinTextures t_;
     PrincipledThinBxdf mean_;
+    ThinBound bound_{};
     uint32_t flags_ = 0;
     float roughness_ = 1.f;
     bool anisotropic_ = false;

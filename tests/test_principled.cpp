@@ -22,6 +22,7 @@
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
 #include "bsdf/principled.h"
+#include "bsdf_chi2.h"
 #include "bsdf_compare.h"
 #include "chi2.h"
 #include "core/loader.h"
@@ -113,45 +114,20 @@ int chi2CaseCount() {
     return n;
 }
 
-// Bins: caps around the mirror and the refracted direction at the lobe's scale, and the whole
-// sphere around the normal.
-// Chi-square of b's sampling against its pdf from wo, with fine bins (half the lobe's alpha) about
-// each peak direction and coarse ones elsewhere; the lost samples (failed draws) are the pdf's
-// missing mass: 5 binomial standard errors + 2e-3 for the quadrature (as test_bsdf_extra.cpp).
-void runLobeChi2(const Bxdf& b, const std::string& name, const Vec3& wo, const std::vector<Vec3>& peaks,
-                 float lobeAlpha, uint64_t seed, double level) {
-    chi2::SampleFn sampler = [&](Rng& rng, Vec3& w) {
-        BsdfSample s;
-        const float ul = rng.uniform();
-        const Vec2 u = rng.uniform2();
-        if (!b.sample(wo, ul, u, kRadianceContext, s)) return false;
-        w = s.wi;
-        return true;
-    };
-    chi2::PdfFn pdf = [&](const Vec3& w) { return double(b.eval(wo, w, kRadianceContext).pdfFwd.value); };
-    std::vector<chi2::Region> regions;
-    const float cosCap = std::cos(std::min(1.2f, 6.f * lobeAlpha + 0.02f));
-    for (const Vec3& peak : peaks)
-        regions.push_back({chi2::Domain(peak, 0.5 * lobeAlpha, 40, 80),
-                           [peak, cosCap](const Vec3& w) { return glm::dot(w, peak) > cosCap; }});
-    regions.push_back({chi2::Domain(Vec3(0.f, 0.f, 1.f), 1.0, 40, 80), nullptr});
-    chi2::Chi2Test test(sampler, 200000, seed);
-    const chi2::Result res = test.run(pdf, regions, level);
-    INFO(name << " wo " << wo.x << " " << wo.y << " " << wo.z << ": " << res.summary());
-    CHECK(res.samplesInZeroBins == 0);
-    CHECK(res.pValue >= res.significance);
-    const double n = double(res.samples), lostFrac = double(res.lost) / n;
-    const double se = std::sqrt(std::max(lostFrac * (1.0 - lostFrac), 1.0 / n) / n);
-    CHECK(res.pdfIntegral <= 1.0 + 2e-3);
-    CHECK(std::abs((1.0 - res.pdfIntegral) - lostFrac) <= 5.0 * se + 2e-3);
-}
-
 // Peaks: the mirror direction, and the refracted one where the case transmits.
 void runChi2(const Case& c, const Vec3& wo, uint64_t seed, double level) {
     std::vector<Vec3> peaks{Vec3(-wo.x, -wo.y, wo.z)};
     Vec3 t;
     if (c.p.specTrans > 0.f && refractAbout(wo, Vec3(0.f, 0.f, 1.f), c.p.eta, t)) peaks.push_back(t);
     runLobeChi2(*makePrincipled(c.p), c.name, wo, peaks, c.lobeAlpha, seed, level);
+}
+
+// No request, a JG19 bound, and an OPSR roughness (each lobe's alphas raised: bsdf.h).
+std::vector<RegularizationRequest> someRequests() {
+    RegularizationRequest tau, rough;
+    tau.tau = 300.f;
+    rough.minAlpha = {0.05f, 0.05f};
+    return {RegularizationRequest{}, tau, rough};
 }
 
 // A direction uniformly on the sphere.
@@ -180,8 +156,9 @@ TEST_CASE("chi2 principled sampling against the eval pdf", "[principled][chi2]")
 TEST_CASE("principled weights are f cos over pdf and pdfRev is the swapped pdfFwd in both modes", "[principled]") {
     for (const Case& c : cases()) {
         const BxdfPtr b = makePrincipled(c.p);
-        for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
-            const BsdfContext ctx(mode);
+        for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance})
+          for (const RegularizationRequest& req : someRequests()) {
+            const BsdfContext ctx(mode, req);
             Rng rng(3, 5);
             int n = 0, bad = 0, trans = 0;
             for (int k = 0; k < 4000; ++k) {
@@ -202,7 +179,8 @@ TEST_CASE("principled weights are f cos over pdf and pdfRev is the swapped pdfFw
                                 ((s.lobe & kTransmission) ? s.eta == (wo.z > 0.f ? c.p.eta : 1.f / c.p.eta) : s.eta == 1.f);
                 if (!ok) ++bad;
             }
-            INFO(c.name << " mode " << int(mode) << ": " << bad << " bad of " << n);
+            INFO(c.name << " mode " << int(mode) << " request tau " << req.tau << " minAlpha " << req.minAlpha.alphaU
+                        << ": " << bad << " bad of " << n);
             CHECK(n > 2000);
             CHECK(bad == 0);
             if (c.p.specTrans > 0.f) CHECK(trans > 100);
@@ -585,8 +563,9 @@ TEST_CASE("chi2 principledthin sampling against the eval pdf", "[principled][thi
 TEST_CASE("principledthin weights densities adjoint and two sides", "[principled][thin]") {
     for (const ThinCase& c : thinCases()) {
         const BxdfPtr b = makePrincipledThin(c.p);
-        for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
-            const BsdfContext ctx(mode);
+        for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance})
+          for (const RegularizationRequest& req : someRequests()) {
+            const BsdfContext ctx(mode, req);
             Rng rng(3, 5);
             int n = 0, bad = 0, trans = 0;
             for (int k = 0; k < 4000; ++k) {
@@ -605,7 +584,8 @@ TEST_CASE("principledthin weights densities adjoint and two sides", "[principled
                                 ((s.lobe & kTransmission) ? (s.wi.z * wo.z < 0.f) : (s.wi.z * wo.z > 0.f));
                 if (!ok) ++bad;
             }
-            INFO(c.name << " mode " << int(mode) << ": " << bad << " bad of " << n);
+            INFO(c.name << " mode " << int(mode) << " request tau " << req.tau << " minAlpha " << req.minAlpha.alphaU
+                        << ": " << bad << " bad of " << n);
             CHECK(n > 3000);
             CHECK(trans > 100);
             CHECK(bad == 0);
