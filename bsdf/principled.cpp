@@ -83,6 +83,14 @@ float diffuseShapeBound(float roughness) {
     return std::max({1.f, 0.5f + rr, 0.25f + rr * (1.f + rr)});
 }
 
+float diffuseSheenBound(float weight, float maxBase, float roughness, float flatness, float sheenWeight,
+                        float sheenColour) {
+    if (!(weight > 0.f)) return 0.f;
+    if (flatness > 0.f) return kInf;
+    const float diffuse = weight * maxBase * kInvPi * diffuseShapeBound(roughness);
+    return sheenWeight > 0.f ? diffuse + sheenWeight * sheenColour : diffuse;
+}
+
 }  // namespace principled_detail
 
 namespace {
@@ -149,11 +157,8 @@ public:
     }
     // The bound's terms of this model (the diffuse and sheen lobes' exactly).
     PrincipledBound ownBound() const {
-        float diffuse = 0.f;
-        if (brdf_ > 0.f) {
-            diffuse = p_.flatness > 0.f ? kInf : brdf_ * maxComp(p_.baseColor) * kInvPi * diffuseShapeBound(p_.roughness);
-            if (p_.sheen > 0.f) diffuse += p_.sheen * (1.f - p_.metallic) * maxComp(sheenColor_);
-        }
+        const float diffuse = diffuseSheenBound(brdf_, maxComp(p_.baseColor), p_.roughness, p_.flatness,
+                                                p_.sheen * (1.f - p_.metallic), maxComp(sheenColor_));
         return {std::min(mf_.alphaU(), mf_.alphaV()), bsdf_, 0.25f * p_.clearcoat, cc_.alpha, diffuse, p_.eta};
     }
 
@@ -439,17 +444,13 @@ private:
     // The bound's terms at their worst over the textures' ranges [lo, hi] (every point's model's
     // bound is at most the material's: each term grows with the weights and falls with the alphas).
     PrincipledBound worstBound(const PrincipledParams& lo, const PrincipledParams& hi) const {
-        const float brdf = (1.f - lo.metallic) * (1.f - lo.specTrans);
-        float diffuse = 0.f;
-        if (brdf > 0.f) {
-            diffuse = hi.flatness > 0.f ? kInf : brdf * maxComp(hi.baseColor) * kInvPi * diffuseShapeBound(hi.roughness);
-            if (hi.sheen > 0.f) {
-                // (the sheen's tint is base / luminance(base): no bound from a textured base's range)
-                float tint = 1.f;
-                if (hi.sheenTint > 0.f) tint = t_.baseColor ? kInf : maxComp(PrincipledBxdf::sheenColour(p_.baseColor, hi.sheenTint));
-                diffuse += hi.sheen * (1.f - lo.metallic) * std::max(1.f, tint);
-            }
-        }
+        // (the sheen's tint is base / luminance(base): no bound from a textured base's range)
+        float sheenColour = 1.f;
+        if (hi.sheenTint > 0.f)
+            sheenColour = t_.baseColor ? kInf : maxComp(PrincipledBxdf::sheenColour(p_.baseColor, hi.sheenTint));
+        const float diffuse = diffuseSheenBound((1.f - lo.metallic) * (1.f - lo.specTrans), maxComp(hi.baseColor),
+                                                hi.roughness, hi.flatness, hi.sheen * (1.f - lo.metallic),
+                                                std::max(1.f, sheenColour));
         const Roughness a = mainAlphas(lo.roughness, hi.anisotropic);
         return {std::min(a.alphaU, a.alphaV), (1.f - lo.metallic) * hi.specTrans, 0.25f * hi.clearcoat,
                 clearcoatAlpha(hi.clearcoatGloss), diffuse, p_.eta};

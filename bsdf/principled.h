@@ -137,6 +137,11 @@ MicrofacetLobe::Resolved resolveWeighted(const MicrofacetLobe& lobe, float weigh
 // Fo Fi (rr - 1)), rr = 2 roughness cos_d^2 <= 2 roughness: bilinear in (Fo, Fi) in [0, 1]^2, so
 // its largest corner. (The flattened form has none: 1 / (cos_o + cos_i) at grazing pairs.)
 float diffuseShapeBound(float roughness);
+// The diffuse and sheen lobes' bound: weight (the diffuse mixture's) x maxBase / pi x the shape's
+// bound, plus sheenWeight x sheenColour (the sheen colour's largest channel); 0 without diffuse,
+// +inf with flatness (the flattened form has no bound).
+float diffuseSheenBound(float weight, float maxBase, float roughness, float flatness, float sheenWeight,
+                        float sheenColour);
 
 }  // namespace principled_detail
 

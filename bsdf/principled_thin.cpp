@@ -68,11 +68,8 @@ public:
         tint_ = lum > 0.f ? p.baseColor / lum : Color(1.f);
         sheenColor_ = sheenColour(p.sheenTint);
         const float diffR = (1.f - p.specTrans) * (1.f - p.diffTrans);
-        float dR = 0.f;
-        if (diffR > 0.f) {
-            dR = p.flatness > 0.f ? kInf : diffR * maxComp(p.baseColor) * kInvPi * diffuseShapeBound(p.roughness);
-            if (p.sheen > 0.f) dR += p.sheen * diffR * maxComp(sheenColor_);
-        }
+        const float dR = diffuseSheenBound(diffR, maxComp(p.baseColor), p.roughness, p.flatness, p.sheen * diffR,
+                                           maxComp(sheenColor_));
         bound_ = {std::min(mfR_.alphaU(), mfR_.alphaV()), std::min(mfT_.alphaU(), mfT_.alphaV()), p.specTrans, dR,
                   (1.f - p.specTrans) * p.diffTrans * maxComp(p.baseColor) * kInvPi};
     }
@@ -296,15 +293,10 @@ public:
         // The bound's terms at their worst over the textures' ranges (as TexturedPrincipledBxdf's;
         // the sheen's tint has no bound from a textured base's range).
         const float diffR = (1.f - lo.specTrans) * (1.f - lo.diffTrans);
-        float dR = 0.f;
-        if (diffR > 0.f) {
-            dR = hi.flatness > 0.f ? kInf : diffR * maxComp(hi.baseColor) * kInvPi * diffuseShapeBound(hi.roughness);
-            if (hi.sheen > 0.f) {
-                float tint = 1.f;
-                if (hi.sheenTint > 0.f) tint = t_.baseColor ? kInf : maxComp(mean_.sheenColour(hi.sheenTint));
-                dR += hi.sheen * diffR * std::max(1.f, tint);
-            }
-        }
+        float sheenColour = 1.f;
+        if (hi.sheenTint > 0.f) sheenColour = t_.baseColor ? kInf : maxComp(mean_.sheenColour(hi.sheenTint));
+        const float dR = diffuseSheenBound(diffR, maxComp(hi.baseColor), hi.roughness, hi.flatness, hi.sheen * diffR,
+                                           std::max(1.f, sheenColour));
         bound_ = {std::min(a.alphaU, a.alphaV), std::min(b.alphaU, b.alphaV), hi.specTrans, dR,
                   (1.f - lo.specTrans) * hi.diffTrans * maxComp(hi.baseColor) * kInvPi};
         cacheBounds();

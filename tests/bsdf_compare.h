@@ -8,6 +8,12 @@
 
 namespace lt::test {
 
+// The unit direction at polar angle thetaDeg (degrees) and azimuth phi (radians).
+inline Vec3 dirDeg(float thetaDeg, float phi = 0.7f) {
+    const float t = glm::radians(thetaDeg);
+    return {std::sin(t) * std::cos(phi), std::sin(t) * std::sin(phi), std::cos(t)};
+}
+
 inline void requireSameEvalsAndSamples(const Bxdf& a, const Bxdf& b, const RegularizationRequest& ra = {},
                                        const RegularizationRequest& rb = {}) {
     const Vec3 dirs[] = {glm::normalize(Vec3(0.3f, 0.1f, 0.9f)), glm::normalize(Vec3(-0.2f, 0.4f, 0.7f)),

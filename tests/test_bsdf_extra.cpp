@@ -38,10 +38,6 @@ namespace {
 
 constexpr float kPolyEta = 1.49f / 1.000277f;  // pplastic's default: polypropylene in air
 
-Vec3 dirDeg(float thetaDeg, float phi = 0.7f) {
-    const float t = glm::radians(thetaDeg);
-    return {std::sin(t) * std::cos(phi), std::sin(t) * std::sin(phi), std::cos(t)};
-}
 Vec3 upper(const Vec2& u) {
     Vec3 w = sampleUniformSphere(u);
     w.z = std::abs(w.z);

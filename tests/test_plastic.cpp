@@ -17,6 +17,7 @@
 #include "bsdf/bsdf.h"
 #include "bsdf/fresnel.h"
 #include "bsdf/microfacet.h"
+#include "bsdf_compare.h"
 #include "chi2.h"
 #include "render_compare.h"
 #include "scene_builders.h"
@@ -32,10 +33,6 @@ namespace {
 
 constexpr float kEta = 1.49f / 1.000277f;  // Mitsuba's default: polypropylene in air
 
-Vec3 dirDeg(float thetaDeg, float phi = 0.7f) {
-    const float t = glm::radians(thetaDeg);
-    return {std::sin(t) * std::cos(phi), std::sin(t) * std::sin(phi), std::cos(t)};
-}
 // Uniform on the upper hemisphere (the model is one-sided).
 Vec3 upper(const Vec2& u) {
     Vec3 w = sampleUniformSphere(u);

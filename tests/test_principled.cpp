@@ -38,10 +38,6 @@ using namespace lt::test;
 
 namespace {
 
-Vec3 dirDeg(float thetaDeg, float phi = 0.7f) {
-    const float t = glm::radians(thetaDeg);
-    return {std::sin(t) * std::cos(phi), std::sin(t) * std::sin(phi), std::cos(t)};
-}
 bool close(float a, float b, float rel, float abs = 0.f) {
     return std::abs(a - b) <= abs + rel * std::max(std::abs(a), std::abs(b));
 }

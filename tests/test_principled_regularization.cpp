@@ -33,10 +33,6 @@ using namespace lt::test;
 
 namespace {
 
-Vec3 dirDeg(float thetaDeg, float phi = 0.7f) {
-    const float t = glm::radians(thetaDeg);
-    return {std::sin(t) * std::cos(phi), std::sin(t) * std::sin(phi), std::cos(t)};
-}
 
 RegularizationRequest tauRequest(float tau, BoundForm form = BoundForm::Tight) {
     RegularizationRequest r;
