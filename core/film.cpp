@@ -12,8 +12,8 @@ constexpr int kGaussianBins = 4096;
 }
 
 Film::Film(int width, int height, FilterType filter, float gaussianStddev)
-    : width_(width), height_(height), filter_(filter), sum_(size_t(width) * height, glm::dvec3(0.0)),
-      count_(size_t(width) * height, 0u), splat_(size_t(width) * height, glm::dvec3(0.0)) {
+    : width_(width), height_(height), filter_(filter), sum_(size_t(width) * height),
+      count_(size_t(width) * height, 0u), splat_(size_t(width) * height) {
     if (filter_ != FilterType::Gaussian) return;
     // Mitsuba's gaussian rfilter: radius 4 stddev, the value at the radius subtracted so that it
     // falls to 0 there. Its CDF by the trapezoid rule on a fine grid (the density is smooth).
@@ -52,7 +52,7 @@ bool Film::addSample(int x, int y, const Color& c) {
         ++invalid_;
         return false;
     }
-    sum_[size_t(y) * width_ + x] += glm::dvec3(c);
+    sum_[size_t(y) * width_ + x].add(c);
     return true;
 }
 
@@ -67,42 +67,73 @@ bool Film::splat(SplatBuffer& buf, const Vec2& raster, const Color& c, uint16_t 
     return true;
 }
 
+// Layout: the camera sums, the sample counts, the splat sums (native byte order, as the sums are
+// held), then the invalid count.
 std::string Film::state() const {
     const size_t n = sum_.size();
     std::string out;
-    out.resize(n * kBytesPerPixel + sizeof(uint64_t));
+    out.resize(stateBytes());
     char* p = out.data();
-    std::memcpy(p, sum_.data(), n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
+    std::memcpy(p, sum_.data(), n * sizeof(ExactColorSum)), p += n * sizeof(ExactColorSum);
     std::memcpy(p, count_.data(), n * sizeof(uint32_t)), p += n * sizeof(uint32_t);
-    std::memcpy(p, splat_.data(), n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
+    std::memcpy(p, splat_.data(), n * sizeof(ExactColorSum)), p += n * sizeof(ExactColorSum);
     const uint64_t invalid = invalid_.load();
     std::memcpy(p, &invalid, sizeof invalid);
     return out;
 }
 
+void Film::checkStateSize(const std::string& bytes) const {
+    if (bytes.size() != stateBytes())
+        throw std::runtime_error("the saved film is not one of " + std::to_string(width_) + "x" +
+                                 std::to_string(height_) + " (" + std::to_string(bytes.size()) + " bytes, expected " +
+                                 std::to_string(stateBytes()) + ")");
+}
+
 void Film::restore(const std::string& bytes) {
+    checkStateSize(bytes);
     const size_t n = sum_.size();
-    if (bytes.size() != n * kBytesPerPixel + sizeof(uint64_t))
-        throw std::runtime_error("the saved film is not one of " + std::to_string(width_) + "x" + std::to_string(height_));
     const char* p = bytes.data();
-    std::memcpy(sum_.data(), p, n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
+    std::memcpy(sum_.data(), p, n * sizeof(ExactColorSum)), p += n * sizeof(ExactColorSum);
     std::memcpy(count_.data(), p, n * sizeof(uint32_t)), p += n * sizeof(uint32_t);
-    std::memcpy(splat_.data(), p, n * sizeof(glm::dvec3)), p += n * sizeof(glm::dvec3);
+    std::memcpy(splat_.data(), p, n * sizeof(ExactColorSum)), p += n * sizeof(ExactColorSum);
     uint64_t invalid = 0;
     std::memcpy(&invalid, p, sizeof invalid);
     invalid_ = invalid;
 }
 
+void Film::addState(const std::string& bytes) {
+    checkStateSize(bytes);
+    const size_t n = sum_.size();
+    const char* p = bytes.data();
+    auto addSums = [&](std::vector<ExactColorSum>& sums) {
+        for (size_t i = 0; i < n; ++i, p += sizeof(ExactColorSum)) {
+            ExactColorSum s;
+            std::memcpy(&s, p, sizeof s);
+            sums[i].add(s);
+        }
+    };
+    addSums(sum_);
+    for (size_t i = 0; i < n; ++i, p += sizeof(uint32_t)) {
+        uint32_t c;
+        std::memcpy(&c, p, sizeof c);
+        count_[i] += c;
+    }
+    addSums(splat_);
+    uint64_t invalid = 0;
+    std::memcpy(&invalid, p, sizeof invalid);
+    invalid_ += invalid;
+}
+
 void Film::mergeSplats(const SplatBuffer& buf) {
-    for (const auto& s : buf.splats) splat_[s.pixel] += glm::dvec3(s.value);
+    for (const auto& s : buf.splats) splat_[s.pixel].add(s.value);
 }
 
 Image Film::develop(uint64_t splatPasses) const {
     Image img(width_, height_);
     double inv = splatPasses > 0 ? 1.0 / double(splatPasses) : 0.0;
     for (size_t i = 0; i < sum_.size(); ++i) {
-        glm::dvec3 v = count_[i] > 0 ? sum_[i] / double(count_[i]) : glm::dvec3(0.0);
-        v += splat_[i] * inv;
+        glm::dvec3 v = count_[i] > 0 ? sum_[i].value() / double(count_[i]) : glm::dvec3(0.0);
+        v += splat_[i].value() * inv;
         img.pixels[i] = Color(v);
     }
     return img;

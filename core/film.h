@@ -2,12 +2,14 @@
 // Gaussian filters are realised by filter importance sampling of the pixel offset, so every sample
 // stays in its own pixel's sum), plus a deterministic splat path for light tracing, which splats
 // into the pixel it lands in (a box filter: with tent or Gaussian, light tracing's image is the
-// box-filtered one). Invalid (NaN, Inf, negative)
-// samples are rejected and counted, never accumulated.
+// box-filtered one). The sums are exact (core/exact_sum.h): the same samples added in any order,
+// by any threads or MPI ranks, give the same bits. Invalid samples (NaN, Inf, negative, or
+// >= 2^62, beyond what the exact sum holds) are rejected and counted, never accumulated.
 #pragma once
 #include <atomic>
 #include <string>
 #include <vector>
+#include "core/exact_sum.h"
 #include "core/image.h"
 #include "core/scene_desc.h"
 
@@ -25,9 +27,9 @@ struct SplatBuffer {
 
 class Film {
 public:
-    // What the film keeps of a pixel (two double sums and a sample count), and the most pixels a
-    // scene may ask for (8192 x 8192, 3.5 GB of film; the loader refuses more before allocating).
-    static constexpr size_t kBytesPerPixel = 2 * sizeof(glm::dvec3) + sizeof(uint32_t);
+    // What the film keeps of a pixel (two exact RGB sums and a sample count), and the most pixels
+    // a scene may ask for (8192 x 8192, 6.7 GB of film; the loader refuses more before allocating).
+    static constexpr size_t kBytesPerPixel = 2 * sizeof(ExactColorSum) + sizeof(uint32_t);
     static constexpr int64_t kMaxPixels = int64_t(1) << 26;
 
     Film(int width, int height, FilterType filter, float gaussianStddev = 0.5f);
@@ -41,7 +43,7 @@ public:
     Vec2 samplePixelOffset(const Vec2& u) const;
 
     // Thread-safe as long as no two threads write the same pixel (tiles are disjoint).
-    // Returns false (and counts) for a NaN/Inf/negative sample.
+    // Returns false (and counts) for a NaN/Inf/negative sample or one >= 2^62.
     bool addSample(int x, int y, const Color& c);
     // Sample counts are kept per pixel (a pixel may get more samples in --time mode).
     void addSampleCount(int x, int y, uint32_t n) { count_[size_t(y) * width_ + x] += n; }
@@ -63,17 +65,22 @@ public:
     // back: restore() throws std::runtime_error when the bytes are not a film of this size.
     std::string state() const;
     void restore(const std::string& bytes);
+    // Adds another film's state (same size, else std::runtime_error) to this one, exactly: films
+    // that rendered disjoint sets of passes add up to the bytes of one film that rendered them all.
+    void addState(const std::string& bytes);
 
 private:
-    bool valid(const Color& c) const { return isFinite(c) && c.x >= 0.f && c.y >= 0.f && c.z >= 0.f; }
+    bool valid(const Color& c) const { return ExactColorSum::representable(c); }
+    size_t stateBytes() const { return sum_.size() * kBytesPerPixel + sizeof(uint64_t); }
+    void checkStateSize(const std::string& bytes) const;
     int width_, height_;
     FilterType filter_;
     std::vector<float> gaussianCdf_;  // the Gaussian's CDF at kGaussianBins + 1 equal steps over [-r, r]
     float gaussianRadius_ = 0.f;
     float sampleGaussian(float u) const;
-    std::vector<glm::dvec3> sum_;
+    std::vector<ExactColorSum> sum_;  // camera samples
     std::vector<uint32_t> count_;
-    std::vector<glm::dvec3> splat_;
+    std::vector<ExactColorSum> splat_;  // light-tracing splats
     std::atomic<uint64_t> invalid_{0};
 };
 
