@@ -6,7 +6,9 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 #include "core/film.h"
+#include "integrators/distributed/cluster.h"
 #include "integrators/guiding/trainer.h"
 #include "integrators/transport/jg19.h"
 #include "integrators/transport/kd13.h"
@@ -19,6 +21,10 @@ namespace lt {
 struct RenderSettings {
     // Set (e.g. by a signal handler) to stop after the pass in flight; RenderStats::interrupted.
     const std::atomic<bool>* stop = nullptr;
+    // The processes rendering this image together (integrators/distributed/cluster.h; null: this
+    // one alone). Every rank calls renderImage with the same settings; rank 0's image, stats and
+    // checkpoints hold every rank's passes.
+    dist::Cluster* cluster = nullptr;
     // Checkpoints: resume from `resumePasses` passes whose film state is `resumeFilm`
     // (Film::state) and integrator state `resumeIntegrator` (Integrator::state), and call
     // `checkpoint` with the passes done, the film and the integrator's state every
@@ -145,6 +151,10 @@ struct RenderStats {
     // their techniques were refused, nothing of them written (regularizer.h (7)).
     uint64_t invalidRegularisation = 0;
     bool interrupted = false;  // RenderSettings::stop was set: spp passes of those asked are done
+    // Several MPI ranks (RenderSettings::cluster): the passes each rank rendered, and the seconds
+    // rank 0 spent adding the films (every segment's reduction; its wait for the others included).
+    std::vector<uint64_t> passesPerRank;
+    double reduceSeconds = 0.0;
     // Path guiding: iterations run (the final one included), passes spent training, and the
     // SD-tree's spatial nodes, spatial leaves, directional nodes and bytes at the end.
     int guidingIterations = 0;

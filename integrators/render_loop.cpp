@@ -195,6 +195,15 @@ std::optional<guiding::GuidingSettings> guidingSettingsOf(const RenderSettings& 
 
 Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,
                   const std::function<void(const Progress&)>& progress) {
+    dist::Cluster* cluster = settings.cluster;
+    if (cluster && cluster->size() > 1) {
+        if (settings.guiding != "off")
+            throw std::invalid_argument("--guiding with several MPI ranks is not supported yet (its training would "
+                                        "have to gather every rank's records): run guided renders in one process");
+        if (!settings.strategyImages.empty())
+            throw std::invalid_argument("--strategy-images with several MPI ranks is not supported yet: run them in "
+                                        "one process");
+    }
     auto integrator = makeIntegrator(settings);
     const Camera& cam = scene.camera();
     Film film(cam.width(), cam.height(), scene.desc().camera.filter, scene.desc().camera.filterStddev);
@@ -208,19 +217,14 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count() - excluded; };
     std::atomic<uint64_t> rays{0}, contributions{0}, regularised{0};
     uint64_t passes = settings.resumePasses;
-    if (passes > 0) film.restore(settings.resumeFilm);
+    // (with several ranks the resumed film is rank 0's alone: the reduction adds the others')
+    if (passes > 0 && (!cluster || cluster->root())) film.restore(settings.resumeFilm);
     double lastCheckpoint = 0.0;
     uint64_t savedPasses = UINT64_MAX;  // the passes the last periodic checkpoint holds
     const uint64_t totalPasses = settings.spp > 0 ? uint64_t(settings.spp) : 0;
     constexpr int kTile = 16;
-    while (true) {
-        if (totalPasses > 0 && passes >= totalPasses) break;
-        if (settings.stop && settings.stop->load(std::memory_order_relaxed)) {
-            stats.interrupted = true;
-            break;
-        }
-        if (totalPasses == 0 && (settings.timeLimit <= 0.0 || elapsed() >= settings.timeLimit)) break;
-        uint32_t pass = uint32_t(passes);
+    // Sample index `pass` of every pixel (a pass index is rendered by exactly one process).
+    auto renderPass = [&](uint32_t pass) {
         {
             WalkStats ws;
             integrator->beginPass(scene, film, pass, ws);
@@ -237,21 +241,94 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
                               if (ws.contributions) contributions += ws.contributions, regularised += ws.regularised;
                           });
         integrator->endPass(scene, film, pass);
-        ++passes;
-        if (progress) {
-            auto c0 = Clock::now();
-            progress(Progress{passes, totalPasses, elapsed(), settings.timeLimit,
-                              passes * uint64_t(cam.width()) * cam.height(), &film, integrator.get()});
-            excluded += std::chrono::duration<double>(Clock::now() - c0).count();
+    };
+    auto report = [&](uint64_t done) {
+        if (!progress) return;
+        auto c0 = Clock::now();
+        progress(Progress{done, totalPasses, elapsed(), settings.timeLimit, done * uint64_t(cam.width()) * cam.height(),
+                          &film, integrator.get()});
+        excluded += std::chrono::duration<double>(Clock::now() - c0).count();
+    };
+    double tau = 0.0;
+    if (!cluster) {
+        while (true) {
+            if (totalPasses > 0 && passes >= totalPasses) break;
+            if (settings.stop && settings.stop->load(std::memory_order_relaxed)) {
+                stats.interrupted = true;
+                break;
+            }
+            if (totalPasses == 0 && (settings.timeLimit <= 0.0 || elapsed() >= settings.timeLimit)) break;
+            renderPass(uint32_t(passes));
+            ++passes;
+            report(passes);
+            if (settings.checkpoint && settings.checkpointEvery > 0.0 &&
+                elapsed() - lastCheckpoint >= settings.checkpointEvery) {
+                settings.checkpoint(passes, film, integrator->state());
+                savedPasses = passes;
+                lastCheckpoint = elapsed();
+            }
+            if (totalPasses > 0 && settings.timeLimit > 0.0 && elapsed() >= settings.timeLimit) break;
         }
-        if (settings.checkpoint && settings.checkpointEvery > 0.0 && elapsed() - lastCheckpoint >= settings.checkpointEvery) {
-            settings.checkpoint(passes, film, integrator->state());
-            savedPasses = passes;
-            lastCheckpoint = elapsed();
+        tau = integrator->regularisationTau();
+    } else {
+        // Segments of passes [passes, P): the ranks take passes from the shared counter until it
+        // runs out (--spp) or a rank closes it (rank 0: the time limit or a periodic checkpoint;
+        // any rank: a stop signal). After a segment the films are added on rank 0, and where a
+        // checkpoint closed it, rank 0 writes it and the next segment starts at P (the other
+        // ranks start again from an empty film: the sums are exact, so the bits are the same).
+        const std::string emptyFilm = film.state();
+        uint64_t lastPass = 0, local = 0;  // this rank's last pass and its count
+        while (true) {
+            cluster->startPasses(passes);
+            uint64_t closedAt = 0;  // 1 + what this rank's close() returned; 0: it did not close
+            bool checkpointDue = false, interrupted = false;
+            while (true) {
+                const bool stop = settings.stop && settings.stop->load(std::memory_order_relaxed);
+                const bool root = cluster->root();
+                const bool timeUp =
+                    root && (settings.timeLimit > 0.0 ? elapsed() >= settings.timeLimit : totalPasses == 0);
+                checkpointDue = root && !timeUp && !stop && settings.checkpoint && settings.checkpointEvery > 0.0 &&
+                                elapsed() - lastCheckpoint >= settings.checkpointEvery;
+                if (stop || timeUp || checkpointDue) {
+                    const uint64_t handed = cluster->close();
+                    if (handed < dist::Cluster::kClosed) closedAt = handed + 1;
+                    interrupted = stop;
+                    break;
+                }
+                const uint64_t next = cluster->nextPass();
+                if (next >= dist::Cluster::kClosed || (totalPasses > 0 && next >= totalPasses)) break;
+                renderPass(uint32_t(next));
+                lastPass = next;
+                ++local;
+                if (root) report(next + 1);
+            }
+            // The passes done: every pass handed out before the counter closed (or all of them).
+            const uint64_t closed = cluster->max(closedAt);
+            passes = totalPasses;
+            if (closed > 0) passes = totalPasses > 0 ? std::min(totalPasses, closed - 1) : closed - 1;
+            stats.interrupted = cluster->max(interrupted ? 1 : 0) != 0;
+            const bool more = cluster->max(checkpointDue ? 1 : 0) != 0 && !stats.interrupted &&
+                              !(totalPasses > 0 && passes >= totalPasses);
+            const auto r0 = Clock::now();
+            cluster->reduceFilm(film);
+            stats.reduceSeconds += std::chrono::duration<double>(Clock::now() - r0).count();
+            if (!more) break;
+            if (cluster->root()) {
+                settings.checkpoint(passes, film, integrator->state());
+                savedPasses = passes;
+                lastCheckpoint = elapsed();
+            } else {
+                film.restore(emptyFilm);
+            }
         }
-        if (totalPasses > 0 && settings.timeLimit > 0.0 && elapsed() >= settings.timeLimit) break;
+        stats.passesPerRank = cluster->gather(local);
+        rays = cluster->sum(rays.load());
+        contributions = cluster->sum(contributions.load());
+        regularised = cluster->sum(regularised.load());
+        // (the bound of the last pass: its rank's)
+        tau = cluster->valueAtLargest(local ? lastPass + 1 : 0, integrator->regularisationTau());
     }
-    if (settings.checkpoint && passes != savedPasses)
+    if (settings.checkpoint && passes != savedPasses && (!cluster || cluster->root()))
         settings.checkpoint(passes, film, integrator->state());  // (not twice the same)
     integrator->finish(scene, passes);
     stats.seconds = elapsed();
@@ -261,8 +338,9 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     stats.invalidSamples = film.invalidSamples();
     stats.contributions = contributions.load();
     stats.regularisedContributions = regularised.load();
-    stats.tau = integrator->regularisationTau();
-    stats.invalidRegularisation = integrator->invalidRegularisation();
+    stats.tau = tau;
+    stats.invalidRegularisation =
+        cluster ? cluster->sum(integrator->invalidRegularisation()) : integrator->invalidRegularisation();
     integrator->guidingStats(stats);
     if (Image combined; integrator->develop(combined)) return combined;
     return film.develop(passes);

@@ -15,7 +15,8 @@ action="${1:-render}"
 
 PACKAGES=(build-essential cmake ninja-build pkg-config
   libembree-dev libopenexr-dev libglm-dev libtbb-dev catch2 libcli11-dev libpugixml-dev
-  libtinyobjloader-dev libstb-dev nlohmann-json3-dev libfmt-dev zlib1g-dev gnuplot-nox)
+  libtinyobjloader-dev libstb-dev nlohmann-json3-dev libfmt-dev zlib1g-dev gnuplot-nox
+  libopenmpi-dev openmpi-bin)
 [ "$action" = fuzz ] && PACKAGES+=(clang libclang-rt-14-dev python3)
 [ "$action" = cost ] && PACKAGES+=(valgrind)
 

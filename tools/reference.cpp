@@ -4,6 +4,9 @@
 // sample-count weighted into REF.exr (+ .png). REF.json records the command, the settings, the
 // chunks and the scene hash (SHA-256 over the scene file, its includes and its mesh files).
 // When REF.json already matches the scene hash and the settings, nothing is rendered.
+// Under mpirun every chunk is rendered by all the ranks together (render's machinery,
+// integrators/distributed/cluster.h: the same image as one process); rank 0 decides which chunks
+// are reused and writes every file.
 // Exit codes: 0 success (or up to date), 1 bad command line, 2 bad scene, 3 output not written,
 // 4 rendering failed.
 #include <CLI/CLI.hpp>
@@ -11,6 +14,7 @@
 #include <filesystem>
 #include "core/loader.h"
 #include "core/scene.h"
+#include "integrators/distributed/cluster.h"
 #include "tools/analysis.h"
 #include "tools/cli_checks.h"
 
@@ -18,7 +22,10 @@ using namespace lt;
 using namespace lt::analysis;
 namespace fs = std::filesystem;
 
-int main(int argc, char** argv) {
+static int run(int argc, char** argv, const dist::Session& session) {
+    // Rank 0's answer on every rank (the files it reads decide; the others follow it).
+    dist::Cluster* cluster = session.cluster();
+    auto agree = [&](bool rootValue) { return cluster ? cluster->max(session.root() && rootValue) != 0 : rootValue; };
     CLI::App app{"reference: long render in independent chunks, merged, with a JSON sidecar (command, scene hash)"};
     std::string scenePath, out, spec = "pt";
     std::vector<std::string> defineList;
@@ -81,7 +88,7 @@ int main(int argc, char** argv) {
             return false;
         }
     };
-    bool upToDate = matches(side, key) && fs::exists(outPath);
+    const bool upToDate = agree(matches(side, key) && fs::exists(outPath));
     if (check) {
         fmt::print("reference: {} is {}\n", out, upToDate ? "up to date" : "stale or missing");
         return upToDate ? 0 : 5;
@@ -98,7 +105,7 @@ int main(int argc, char** argv) {
     double seconds = 0;
     uint64_t totalSpp = 0;
     try {
-        fs::create_directories(chunkDir);
+        if (session.root()) fs::create_directories(chunkDir);
         std::unique_ptr<Scene> scene;
         for (int i = 0; i < chunks; ++i) {
             uint64_t s = seed + uint64_t(i);
@@ -107,7 +114,8 @@ int main(int argc, char** argv) {
                                    {"time", timeTotal / chunks}, {"seed", s}};
             fs::path cimg = chunkDir / fmt::format("chunk{}.exr", i), cjson = chunkDir / fmt::format("chunk{}.json", i);
             nlohmann::json cj;
-            if (!force && matches(cjson, ckey) && fs::exists(cimg)) {
+            if (agree(!force && matches(cjson, ckey) && fs::exists(cimg))) {
+                if (!session.root()) continue;
                 cj = nlohmann::json::parse(readFile(cjson.string()));
                 imgs.push_back(readImage(cimg.string()));
                 fmt::print(stderr, "reference: chunk {}/{} reused\n", i + 1, chunks);
@@ -118,11 +126,13 @@ int main(int argc, char** argv) {
                     scene = std::make_unique<Scene>(d);
                 }
                 RenderSettings rs = makeSettings(desc, cfg, threads, s);
+                rs.cluster = cluster;
                 rs.spp = n;
                 rs.timeLimit = spp > 0 ? 0.0 : timeTotal / chunks;
                 RenderStats st;
                 fmt::print(stderr, "reference: chunk {}/{} (seed {}) ...\n", i + 1, chunks, s);
                 Image img = renderImage(*scene, rs, st);
+                if (!session.root()) continue;
                 writeExr(img, cimg.string());
                 cj = {{"key", ckey}, {"scene", fs::absolute(scenePath).string()}, {"scene_sha256", hash.sha256},
                       {"integrator", cfg.integrator}, {"spp", st.spp}, {"seconds", st.seconds}, {"seed", s},
@@ -144,6 +154,7 @@ int main(int argc, char** argv) {
         return 4;
     }
 
+    if (!session.root()) return 0;
     Image merged = weightedAverage(imgs, weights);
     nlohmann::json j;
     j["tool"] = "reference";
@@ -177,4 +188,13 @@ int main(int argc, char** argv) {
     fmt::print("reference: {} spp in {} chunks, {:.1f} s -> {} (scene sha256 {})\n", totalSpp, chunks, seconds, out,
                hash.sha256.substr(0, 16));
     return 0;
+}
+
+int main(int argc, char** argv) {
+    dist::Session session(argc, argv);
+    if (!session.root() && (!std::freopen("/dev/null", "w", stderr) || !std::freopen("/dev/null", "w", stdout)))
+        return 4;  // (rank 0 alone speaks: the others run the same checks)
+    const int rc = run(argc, argv, session);
+    if (session.cluster() && rc != 0 && rc != 5) session.abort(rc);  // (the others wait in a collective)
+    return rc;
 }

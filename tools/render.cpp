@@ -3,6 +3,7 @@
 // 3 output could not be written; 4 other runtime failure.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
+#include <fmt/ranges.h>
 #include <csignal>
 #include <atomic>
 #include <filesystem>
@@ -15,6 +16,7 @@
 #include "bsdf/roughness_bound.h"
 #include "core/image.h"
 #include "core/loader.h"
+#include "integrators/distributed/cluster.h"
 #include "integrators/integrator.h"
 #include "tools/analysis.h"
 #include "tools/cli_checks.h"
@@ -52,8 +54,9 @@ void installStopHandlers() {
 
 // ---- Checkpoints: a text header (magic, key, passes, film bytes), then the film's state ----------
 // (2: the key holds the regulariser's settings as they apply, regularizerSettings; a version-1
-// checkpoint's key could not match, and is refused by its magic instead)
-constexpr const char* kCheckpointMagic = "lighttransport checkpoint 3";
+// checkpoint's key could not match, and is refused by its magic instead; 4: the film's exact sums,
+// core/exact_sum.h)
+constexpr const char* kCheckpointMagic = "lighttransport checkpoint 4";
 
 // The regulariser's settings as the integrator uses them: the defaults resolved, and only the
 // chosen regulariser's (none: its name alone). The stats JSON reports them; the checkpoint key
@@ -179,7 +182,7 @@ std::string regTauTable() {
     return out;
 }
 
-int main(int argc, char** argv) {
+static int run(int argc, char** argv, const dist::Session& session) {
     CLI::App app{"render: a light-transport renderer for Mitsuba 3 XML scenes"};
     std::string scenePath, output, integrator;
     int spp = 0, threads = 0, maxDepth = -2;
@@ -400,7 +403,8 @@ int main(int argc, char** argv) {
     settings.maxDepth = maxDepth >= -1 ? maxDepth : desc.integrator.maxDepth;
     settings.rrDepth = desc.integrator.rrDepth;
     settings.hideEmitters = desc.integrator.hideEmitters;
-    settings.quiet = quiet;
+    settings.quiet = quiet || !session.root();
+    settings.cluster = session.cluster();
     settings.ptStrategy = ptStrategy;
     settings.lightSelection = lightSelection;
     desc.lightSelection = lightSelection == "auto"      ? lightSelectionFor(settings.integrator)
@@ -507,7 +511,11 @@ int main(int argc, char** argv) {
     }
     if (!resumePath.empty()) {
         try {
-            readCheckpoint(resumePath, checkpointKey, settings.resumePasses, settings.resumeFilm, settings.resumeIntegrator);
+            // (rank 0 reads the checkpoint and holds its film; the other ranks learn its pass count)
+            if (session.root())
+                readCheckpoint(resumePath, checkpointKey, settings.resumePasses, settings.resumeFilm,
+                               settings.resumeIntegrator);
+            if (session.cluster()) settings.resumePasses = session.cluster()->max(settings.resumePasses);
         } catch (const std::exception& e) {
             fmt::print(stderr, "error: --resume {}: {}\n", resumePath, e.what());
             return 1;
@@ -518,7 +526,7 @@ int main(int argc, char** argv) {
             return 1;
         }
     }
-    if (!checkpointPath.empty()) {
+    if (!checkpointPath.empty() && session.root()) {
         const std::string why = whyNotWritable(checkpointPath);
         if (!why.empty()) {
             fmt::print(stderr, "error: cannot write '{}': {}\n", checkpointPath, why);
@@ -556,6 +564,7 @@ int main(int argc, char** argv) {
         fmt::print(stderr, "render: interrupted before the first pass was done: nothing written\n");
         return 5;
     }
+    if (!session.root()) return stats.interrupted ? 5 : 0;  // (rank 0 writes what every rank rendered)
 
     try {
         fs::path out(output);
@@ -584,6 +593,9 @@ int main(int argc, char** argv) {
         fmt::print(", guiding {}: {} iterations, {} training spp, {} spatial leaves, {} directional nodes, {:.1f} MiB",
                    settings.guiding, stats.guidingIterations, stats.guidingTrainingSpp, stats.guidingLeaves,
                    stats.guidingDirectionalNodes, double(stats.guidingBytes) / double(1 << 20));
+    if (!stats.passesPerRank.empty())
+        fmt::print(", {} MPI ranks (passes {}), films added in {:.3f} s", stats.passesPerRank.size(),
+                   fmt::join(stats.passesPerRank, "/"), stats.reduceSeconds);
     if (stats.invalidRegularisation > 0)  // (never expected: each is a refused technique, reported)
         fmt::print(", {} regulariser values not a number (their techniques refused)", stats.invalidRegularisation);
     fmt::print(" -> {}\n", output);
@@ -629,6 +641,11 @@ int main(int argc, char** argv) {
             j["regularised_contributions"] = stats.regularisedContributions;
             j["regularised_share"] = regShare;
         }
+        if (!stats.passesPerRank.empty()) {
+            j["mpi_ranks"] = stats.passesPerRank.size();
+            j["mpi_passes_per_rank"] = stats.passesPerRank;
+            j["mpi_reduce_seconds"] = stats.reduceSeconds;
+        }
         if (stats.interrupted) j["interrupted"] = true;
         std::ofstream f(statsJson);
         f << j.dump(2) << "\n";
@@ -643,4 +660,15 @@ int main(int argc, char** argv) {
         return 5;
     }
     return 0;
+}
+
+int main(int argc, char** argv) {
+    dist::Session session(argc, argv);
+    // Under mpirun every rank runs the same checks and prints the same messages: rank 0 alone
+    // speaks (a rank that fails alone still ends the job with its code, below).
+    if (!session.root() && (!std::freopen("/dev/null", "w", stderr) || !std::freopen("/dev/null", "w", stdout))) return 4;
+    const int rc = run(argc, argv, session);
+    // A rank that stops with an error would leave the others waiting in a collective: end them all.
+    if (session.cluster() && rc != 0 && rc != 5) session.abort(rc);
+    return rc;
 }
