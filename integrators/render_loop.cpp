@@ -276,7 +276,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
         // any rank: a stop signal). After a segment the films are added on rank 0, and where a
         // checkpoint closed it, rank 0 writes it and the next segment starts at P (the other
         // ranks start again from an empty film: the sums are exact, so the bits are the same).
-        const std::string emptyFilm = film.state();
+        const std::string emptyFilm = film.state();  // (what the ranks other than 0 start from: nothing)
         uint64_t lastPass = 0, local = 0;  // this rank's last pass and its count
         while (true) {
             cluster->startPasses(passes);
