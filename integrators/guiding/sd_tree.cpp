@@ -88,7 +88,7 @@ SDTree::SDTree(const Vec3& center, float halfSide, const TreeSettings& settings,
     : settings_(settings), lo_(center - Vec3(halfSide)), hi_(center + Vec3(halfSide)) {
     nodes_.emplace_back();
     leaves_.push_back(std::make_unique<GuideLeaf>());
-    leaves_[0]->bsdfFraction = fixedFraction;
+    leaves_[0]->bsdfFraction = leaves_[0]->samplingFraction = fixedFraction;
 }
 
 uint32_t SDTree::findNode(const Vec3& p, Vec3& lo, Vec3& hi) const {
@@ -201,6 +201,7 @@ void SDTree::endIteration(int k, bool varianceTarget) {
         for (size_t l = range.begin(); l != range.end(); ++l) {
             GuideLeaf& leaf = *leaves_[l];
             leaf.sampling = std::move(leaf.building);
+            leaf.samplingFraction = leaf.bsdfFraction;
             if (varianceTarget) leaf.sampling.squareRootLeaves();
             leaf.building = leaf.sampling.refined(settings_.splitFraction, settings_.maxDirectionalDepth);
         }
@@ -297,6 +298,7 @@ void SDTree::save(ByteWriter& w) const {
         l->sampling.save(w);
         l->building.save(w);
         w.put(l->bsdfFraction);
+        w.put(l->samplingFraction);
         w.put(l->theta);
         w.put(l->adamM);
         w.put(l->adamV);
@@ -317,6 +319,7 @@ void SDTree::load(ByteReader& r) {
         l->sampling.load(r);
         l->building.load(r);
         l->bsdfFraction = r.get<float>();
+        l->samplingFraction = r.get<float>();
         l->theta = r.get<float>();
         l->adamM = r.get<float>();
         l->adamV = r.get<float>();

@@ -48,7 +48,11 @@ struct Record {
 struct GuideLeaf {
     DirectionalTree sampling;   // sampled this iteration (learned from the last)
     DirectionalTree building;   // receives this iteration's records
-    float bsdfFraction = 0.5f;  // alpha of the mixture at this leaf (fixed or learned)
+    float bsdfFraction = 0.5f;  // alpha of the mixture at this leaf (fixed or learned; updated per pass)
+    // The alpha the walks sample with: bsdfFraction as the running iteration started (endIteration
+    // copies it), so every pass of an iteration samples with the same tree and MPI ranks may render
+    // an iteration's passes in parallel (trainer.h).
+    float samplingFraction = 0.5f;
     // Adam's state of the learned fraction.
     float theta = 0.f, adamM = 0.f, adamV = 0.f;
     uint64_t adamSteps = 0;
@@ -72,8 +76,8 @@ public:
     // leaf it falls in and its direction over a square the size of the building tree's leaf it
     // falls in, with random numbers from `seed` and the record's index (counted across the
     // batches). When `learnFraction`, each leaf then takes one Adam step per record of it with
-    // `learnFraction` set, in order, the gradient taken at the current theta (a fraction stays
-    // fixed during a pass: bsdfFraction is updated from theta after the leaf's records). Leaves
+    // `learnFraction` set, in order, the gradient taken at the current theta (bsdfFraction is
+    // updated from theta after the leaf's records; the walks read samplingFraction). Leaves
     // are processed in parallel (each by one thread). Every record counts in `records`.
     void addRecords(const std::vector<const std::vector<Record>*>& batches, uint64_t seed, bool learnFraction);
 
@@ -83,7 +87,8 @@ public:
     // state, record counts halved, a child splitting again while above the threshold, down to
     // depth 48), a split being skipped where it would take bytes() over maxBytes, and the
     // building trees are rebuilt by DirectionalTree::refined from the energy just learned (the
-    // new sampling tree's). Record counts are then reset to 0. The cap holds for bytes() after
+    // new sampling tree's). Every leaf's samplingFraction becomes its bsdfFraction. Record counts
+    // are then reset to 0. The cap holds for bytes() after
     // the call if it held for the refined trees before the splits.
     void endIteration(int k, bool varianceTarget);
 
@@ -107,6 +112,7 @@ private:
         uint32_t leaf = 0;           // index into leaves_ where a leaf
         uint8_t axis = 0;            // the axis it splits (or would split) along
         uint8_t depth = 0;           // root 0
+        uint8_t unused[2] = {0, 0};  // (the padding, zeroed: save() copies nodes as they are, so a state's bytes are deterministic)
     };
     // The leaf node containing p (clamped into the cube) and its bounds; children are appended
     // after their parent in nodes_.

@@ -20,7 +20,7 @@ inline constexpr float kMinGuidedRoughness = 0.05f;
 // One per camera walk (per tile and thread), over a tree that no one writes during the pass.
 struct WalkGuide {
     const SDTree* tree = nullptr;
-    bool learnedFraction = false;  // alpha from the leaf (learned), else `fixedFraction`
+    bool learnedFraction = false;  // alpha from the leaf (its samplingFraction, learned), else `fixedFraction`
     float fixedFraction = 0.5f;
     // Per walk vertex index, written where the walk sampled there: the leaf of a vertex guiding
     // applies to (null: a delta or too smooth lobe), whether it was guided (its leaf had learned
@@ -39,7 +39,7 @@ struct WalkGuide {
         leaf[i] = &l;
         if (!l.sampling.trained()) return false;
         active[i] = true;
-        alpha[i] = learnedFraction ? l.bsdfFraction : fixedFraction;
+        alpha[i] = learnedFraction ? l.samplingFraction : fixedFraction;
         return true;
     }
     bool guided(int i) const { return active[i]; }
