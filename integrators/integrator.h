@@ -152,9 +152,10 @@ struct RenderStats {
     uint64_t invalidRegularisation = 0;
     bool interrupted = false;  // RenderSettings::stop was set: spp passes of those asked are done
     // Several MPI ranks (RenderSettings::cluster): the passes each rank rendered, and the seconds
-    // rank 0 spent adding the films (every segment's reduction; its wait for the others included).
+    // rank 0 spent adding the films (every segment's reduction; its wait for the others included)
+    // and, with path guiding, sharing the training's records and sums (shareSegment).
     std::vector<uint64_t> passesPerRank;
-    double reduceSeconds = 0.0;
+    double reduceSeconds = 0.0, guidingShareSeconds = 0.0;
     // Path guiding: iterations run (the final one included), passes spent training, and the
     // SD-tree's spatial nodes, spatial leaves, directional nodes and bytes at the end.
     int guidingIterations = 0;
@@ -186,6 +187,17 @@ public:
     virtual double regularisationTau() const { return 0.0; }
     // The regulariser's values found not to be numbers so far (regularizer.h (7)).
     virtual uint64_t invalidRegularisation() const { return 0; }
+    // --- Several ranks (RenderSettings::cluster). An integrator whose passes read what earlier
+    // passes learned (path guiding) renders in segments of passes and shares what each rank
+    // learned between them. Each call is collective (every rank, the same arguments), in this
+    // order: startRanks(first) before the first segment (a resumed state is rank 0's alone);
+    // per segment, its passes [P, E) with E <= segmentEnd(P, ranks), then shareSegment(E, toRoot),
+    // which leaves rank 0's state() the single process's after E passes where toRoot (a
+    // checkpoint or the render's end follows); then, unless the render ends, continueRanks(E).
+    virtual void startRanks(const Scene& scene, dist::Cluster& cluster, uint64_t first) {}
+    virtual uint64_t segmentEnd(uint64_t first, int ranks) const { return UINT64_MAX; }
+    virtual void shareSegment(dist::Cluster& cluster, uint64_t passes, bool toRoot) {}
+    virtual void continueRanks(dist::Cluster& cluster, uint64_t passes) {}
     // Renders sample index `pass` of every pixel in rows [y0, y1) x cols [x0, x1).
     virtual void renderTile(const Scene& scene, Film& film, uint32_t pass, int x0, int y0, int x1, int y1,
                             WalkStats& stats) const = 0;

@@ -7,9 +7,14 @@
 // inlining limits: with KD13's instantiation in the same unit, BPT and VCM ran 1% more
 // instructions.)
 #pragma once
+#include <fmt/format.h>
+#include <algorithm>
+#include <functional>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include "integrators/guiding/dump.h"
+#include "integrators/guiding/serial.h"
 #include "integrators/guiding/trainer.h"
 #include "integrators/integrator.h"
 #include "integrators/strategy_images.h"
@@ -52,7 +57,55 @@ public:
         if (trainer_ && !settings_.guidingDump.empty()) guiding::dumpGuide(scene, trainer_->tree(), settings_.guidingDump);
     }
     void endPass(const Scene&, Film&, uint32_t pass) override {
-        if (trainer_) trainer_->endPass(pass);
+        if (!trainer_) return;
+        const bool keep = ranks_ && trainer_->training();
+        trainer_->endPass(pass);
+        if (keep) kept_.emplace(pass, trainer_->takeDeferred());
+    }
+
+    // Several ranks: the call sequence of trainer.h ("Several ranks"), one Trainer per rank.
+    void startRanks(const Scene& scene, dist::Cluster& cluster, uint64_t first) override {
+        if (!guiding_) return;
+        ranks_ = true;
+        if (!cluster.root()) settings_.guidingDump.clear();  // (rank 0 writes every file)
+        if (first > 0) settings_.resumeIntegrator = cluster.broadcast(settings_.resumeIntegrator, 0);
+        startGuiding(scene, first > 0);
+        trainer_->deferRecords(true);
+        trainer_->beginPass(uint32_t(first));
+        if (!cluster.root()) trainer_->takeIterationSums();  // (a resumed iteration's sums are rank 0's)
+    }
+    // A training iteration's passes share their records at most every kPassesPerRank passes a
+    // rank (what a rank keeps between two segments), and always where the iteration ends.
+    uint64_t segmentEnd(uint64_t first, int ranks) const override {
+        if (!trainer_ || !trainer_->training()) return UINT64_MAX;
+        return std::min(trainer_->iterationEnd(), first + kPassesPerRank * uint64_t(ranks));
+    }
+    void shareSegment(dist::Cluster& cluster, uint64_t passes, bool toRoot) override {
+        if (!trainer_) return;
+        if (trainer_->training()) shareRecords(cluster, passes);
+        // The iteration's sums: on every rank where the iteration ends (its pixel estimate is
+        // the next one's), else on rank 0 where it writes a state or the image.
+        const bool iterationEnds = passes == trainer_->iterationEnd();
+        if (!iterationEnds && !toRoot) return;
+        const std::vector<std::string> sums = cluster.gatherBytes(cluster.root() ? std::string() : trainer_->takeIterationSums());
+        for (size_t r = 1; r < sums.size(); ++r) trainer_->addIterationSums(sums[r]);
+        if (!iterationEnds) return;
+        const std::string total = cluster.broadcast(cluster.root() ? trainer_->iterationSums() : std::string(), 0);
+        if (!cluster.root()) trainer_->addIterationSums(total);
+    }
+    void continueRanks(dist::Cluster& cluster, uint64_t passes) override {
+        if (!trainer_ || passes != trainer_->iterationEnd()) return;
+        if (settings_.spp <= 0)  // (a time budget: rank 0's clock decides whether the next iteration trains)
+            trainer_->decideNextIteration(cluster.max(cluster.root() && trainer_->nextIterationTrains() ? 1 : 0) != 0);
+        trainer_->beginPass(uint32_t(passes));
+        // Every rank must now hold the same tree (else it renders another image than the single
+        // process): its bytes' hashes compared, once per iteration.
+        guiding::ByteWriter w;
+        trainer_->tree().save(w);
+        const std::vector<uint64_t> hashes = cluster.gather(std::hash<std::string>{}(w.out));
+        if (std::adjacent_find(hashes.begin(), hashes.end(), std::not_equal_to<>()) != hashes.end())
+            throw std::logic_error(fmt::format("guiding: the ranks' SD-trees differ after iteration {} (hashes {:x})",
+                                               trainer_->iterations() - 1, fmt::join(hashes, " ")));
     }
     bool develop(Image& out) const override {
         if (!trainer_) return false;
@@ -312,6 +365,43 @@ private:
         }
     }
 
+    // Several ranks: the records of this segment's passes [.., passes) applied on every rank in
+    // pass order, each pass's broadcast by the rank that rendered it (one pass's records in
+    // flight at a time).
+    void shareRecords(dist::Cluster& cluster, uint64_t passes) {
+        const uint64_t first = passes - std::min<uint64_t>(passes, kPassesPerRank * uint64_t(cluster.size()));
+        std::vector<uint64_t> mine;
+        for (const auto& [pass, bytes] : kept_) mine.push_back(pass);
+        guiding::ByteWriter w;
+        w.putVector(mine);
+        const std::vector<std::string> lists = cluster.gatherBytes(w.out);
+        // Rank 0 names the owner of each pass; every rank then takes part in each broadcast.
+        std::vector<uint64_t> owner;
+        if (cluster.root()) {
+            for (size_t r = 0; r < lists.size(); ++r) {
+                guiding::ByteReader rd(lists[r]);
+                for (const uint64_t pass : rd.getVector<uint64_t>()) {
+                    if (pass < first || pass >= passes)
+                        throw std::logic_error("guiding: a rank kept pass " + std::to_string(pass) + " outside the segment");
+                    owner.resize(std::max<size_t>(owner.size(), pass - first + 1), UINT64_MAX);
+                    owner[pass - first] = r;
+                }
+            }
+        }
+        guiding::ByteWriter ow;
+        ow.putVector(owner);
+        const std::string owners = cluster.broadcast(ow.out, 0);
+        owner = guiding::ByteReader(owners).getVector<uint64_t>();
+        for (size_t i = 0; i < owner.size(); ++i) {
+            if (owner[i] == UINT64_MAX) continue;  // (a pass before this segment's, applied already)
+            const uint64_t pass = first + i;
+            const bool own = owner[i] == uint64_t(cluster.rank());
+            const std::string bytes = cluster.broadcast(own ? kept_.at(pass) : std::string(), int(owner[i]));
+            trainer_->applyDeferred({bytes});
+        }
+        kept_.clear();
+    }
+
     // The trainer of this run, from the checkpoint's state where the run resumes one.
     void startGuiding(const Scene& scene, bool resumed) {
         trainer_ = std::make_unique<guiding::Trainer>(
@@ -330,6 +420,10 @@ private:
     std::unique_ptr<StrategyImages> strategies_;  // --strategy-images
     std::optional<guiding::GuidingSettings> guiding_;  // --guiding (none: off)
     std::unique_ptr<guiding::Trainer> trainer_;
+    // Several ranks (startRanks): this rank's passes of the running segment, as Trainer::takeDeferred gives them.
+    static constexpr uint64_t kPassesPerRank = 4;
+    bool ranks_ = false;
+    std::map<uint64_t, std::string> kept_;
 };
 
 }  // namespace

@@ -197,9 +197,6 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
                   const std::function<void(const Progress&)>& progress) {
     dist::Cluster* cluster = settings.cluster;
     if (cluster && cluster->size() > 1) {
-        if (settings.guiding != "off")
-            throw std::invalid_argument("--guiding with several MPI ranks is not supported yet (its training would "
-                                        "have to gather every rank's records): run guided renders in one process");
         if (!settings.strategyImages.empty())
             throw std::invalid_argument("--strategy-images with several MPI ranks is not supported yet: run them in "
                                         "one process");
@@ -272,14 +269,18 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
         tau = integrator->regularisationTau();
     } else {
         // Segments of passes [passes, P): the ranks take passes from the shared counter until it
-        // runs out (--spp) or a rank closes it (rank 0: the time limit or a periodic checkpoint;
-        // any rank: a stop signal). After a segment the films are added on rank 0, and where a
-        // checkpoint closed it, rank 0 writes it and the next segment starts at P (the other
-        // ranks start again from an empty film: the sums are exact, so the bits are the same).
+        // runs out (--spp, or the integrator's segmentEnd: path guiding shares its training
+        // there) or a rank closes it (rank 0: the time limit or a periodic checkpoint; any rank:
+        // a stop signal). Where a checkpoint follows or the render ends, the films are added on
+        // rank 0, which writes the checkpoint; the other ranks start again from an empty film
+        // (the sums are exact, so the bits are the same).
         const std::string emptyFilm = film.state();  // (what the ranks other than 0 start from: nothing)
         uint64_t lastPass = 0, local = 0;  // this rank's last pass and its count
+        integrator->startRanks(scene, *cluster, passes);
         while (true) {
             cluster->startPasses(passes);
+            const uint64_t end =
+                std::min(totalPasses > 0 ? totalPasses : UINT64_MAX, integrator->segmentEnd(passes, cluster->size()));
             uint64_t closedAt = 0;  // 1 + what this rank's close() returned; 0: it did not close
             bool checkpointDue = false, interrupted = false;
             while (true) {
@@ -296,30 +297,39 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
                     break;
                 }
                 const uint64_t next = cluster->nextPass();
-                if (next >= dist::Cluster::kClosed || (totalPasses > 0 && next >= totalPasses)) break;
+                if (next >= std::min(end, dist::Cluster::kClosed)) break;
                 renderPass(uint32_t(next));
                 lastPass = next;
                 ++local;
                 if (root) report(next + 1);
             }
-            // The passes done: every pass handed out before the counter closed (or all of them).
+            // The passes done: every pass handed out before the counter closed (or all of the segment's).
             const uint64_t closed = cluster->max(closedAt);
-            passes = totalPasses;
-            if (closed > 0) passes = totalPasses > 0 ? std::min(totalPasses, closed - 1) : closed - 1;
+            passes = closed > 0 ? std::min(end, closed - 1) : end;
             stats.interrupted = cluster->max(interrupted ? 1 : 0) != 0;
-            const bool more = cluster->max(checkpointDue ? 1 : 0) != 0 && !stats.interrupted &&
-                              !(totalPasses > 0 && passes >= totalPasses);
-            const auto r0 = Clock::now();
-            cluster->reduceFilm(film);
-            stats.reduceSeconds += std::chrono::duration<double>(Clock::now() - r0).count();
-            if (!more) break;
-            if (cluster->root()) {
-                settings.checkpoint(passes, film, integrator->state());
-                savedPasses = passes;
-                lastCheckpoint = elapsed();
-            } else {
-                film.restore(emptyFilm);
+            const bool checkpoint = cluster->max(checkpointDue ? 1 : 0) != 0;
+            // (a counter closed by the time limit or a signal ends the render)
+            const bool more = !stats.interrupted && !(totalPasses > 0 && passes >= totalPasses) &&
+                              (checkpoint || closed == 0);
+            const auto s0 = Clock::now();
+            integrator->shareSegment(*cluster, passes, checkpoint || !more);
+            stats.guidingShareSeconds += std::chrono::duration<double>(Clock::now() - s0).count();
+            if (checkpoint || !more) {
+                const auto r0 = Clock::now();
+                cluster->reduceFilm(film);
+                stats.reduceSeconds += std::chrono::duration<double>(Clock::now() - r0).count();
             }
+            if (!more) break;
+            if (checkpoint) {
+                if (cluster->root()) {
+                    settings.checkpoint(passes, film, integrator->state());
+                    savedPasses = passes;
+                    lastCheckpoint = elapsed();
+                } else {
+                    film.restore(emptyFilm);
+                }
+            }
+            integrator->continueRanks(*cluster, passes);
         }
         stats.passesPerRank = cluster->gather(local);
         rays = cluster->sum(rays.load());

@@ -118,17 +118,19 @@ TEST_CASE("MPI: a checkpoint written by 3 ranks resumes with 1 and with 2 to the
 
 namespace {
 
-// Starts `mpirun -n 2 render ... --checkpoint C --checkpoint-every 0.2` in the background, waits
-// until the checkpoint exists (at most 60 s), then runs `action` (a shell command; $PID_ROOT and
-// $PID_RANK1 are the ranks' processes) and waits for mpirun. Returns mpirun's exit code.
-int interruptedRun(const TempDir& dir, const std::string& args, const std::string& action) {
+// Starts `mpirun -n N render ... --checkpoint C --checkpoint-every 0.2` in the background, waits
+// until the checkpoint exists (at most 60 s) and `wait` seconds more, then runs `action` (a shell
+// command; $PID_ROOT and $PID_RANK1 are the ranks' processes) and waits for mpirun. Returns
+// mpirun's exit code.
+int interruptedRun(const TempDir& dir, const std::string& args, const std::string& action, int ranks = 2,
+                   double wait = 0.5) {
     const std::string script = dir.write("run.sh", "#!/bin/bash\n"
         "cd " + dir.dir.string() + "\n" +
-        mpirun(2) + kRender + " " + args + " --threads 1 -q --checkpoint c.ckpt --checkpoint-every 0.2 -o out.exr "
+        mpirun(ranks) + kRender + " " + args + " --threads 1 -q --checkpoint c.ckpt --checkpoint-every 0.2 -o out.exr "
         "> log.txt 2>&1 &\n"
         "MPIRUN=$!\n"
         "for i in $(seq 600); do [ -f c.ckpt ] && break; sleep 0.1; done\n"
-        "sleep 0.5\n"
+        "sleep " + std::to_string(wait) + "\n"
         "for p in $(pgrep -f 'render .*--checkpoint c.ckpt'); do\n"
         "  r=$(tr '\\0' '\\n' < /proc/$p/environ 2>/dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p')\n"
         "  [ \"$r\" = 0 ] && PID_ROOT=$p\n"
@@ -138,6 +140,14 @@ int interruptedRun(const TempDir& dir, const std::string& args, const std::strin
         "wait $MPIRUN\n"
         "exit $?\n");
     return sh("bash " + script).code;
+}
+
+// The passes a checkpoint file holds (its header's "passes N").
+uint64_t checkpointPasses(const std::string& file) {
+    const std::string header = readText(file).substr(0, 200);
+    const size_t at = header.find("passes ");
+    REQUIRE(at != std::string::npos);
+    return std::stoull(header.substr(at + 7));
 }
 
 }  // namespace
@@ -165,10 +175,7 @@ TEST_CASE("MPI: SIGINT to mpirun writes the image of the passes done, and a kill
         INFO(readText(dir.file("log.txt")));
         CHECK(code != 0);
         CHECK_FALSE(std::filesystem::exists(dir.file("out.exr")));
-        const std::string header = readText(dir.file("c.ckpt")).substr(0, 200);
-        const size_t at = header.find("passes ");
-        REQUIRE(at != std::string::npos);
-        const uint64_t saved = std::stoull(header.substr(at + 7));
+        const uint64_t saved = checkpointPasses(dir.file("c.ckpt"));
         const std::string more = std::to_string(saved + 3);
         const std::string resumed = dir.file("resumed.exr"), straight = dir.file("straight.exr");
         const std::string same = kScene + " -D res=32 --integrator pt -q --spp " + more;
@@ -176,6 +183,109 @@ TEST_CASE("MPI: SIGINT to mpirun writes the image of the passes done, and a kill
         REQUIRE(sh(kRender + " " + same + " -o " + straight).code == 0);
         CHECK(differing(readImage(resumed), readImage(straight)) == 0);
     }
+}
+
+
+namespace {
+
+// Guided PT whose tree splits space many times (a low spatial threshold) on a small image.
+const std::string kGuided = kScene + " -D res=24 --integrator pt --guiding-spatial-threshold 20";
+
+}  // namespace
+
+TEST_CASE("MPI: guided renders are the single-process image bit for bit with 1 2 and 3 ranks", "[mpi][guiding]") {
+    // Every rank builds the single process's SD-tree (trainer.h, "Several ranks"): the image
+    // depends on every tree and pixel estimate of the training, so one record, sum or iteration
+    // decision out of place changes it. 64 spp train 31 passes in 5 iterations; the last one
+    // (16 passes) shares its records in segments of 4 passes a rank.
+    TempDir dir("lt_test_mpi_guided");
+    checkSameWithRanks(dir, kGuided + " --spp 64 --seed 5 --guiding variance");
+    checkSameWithRanks(dir, kGuided + " --spp 64 --seed 6 --guiding variance --guiding-bsdf-fraction learned");
+    checkSameWithRanks(dir, kGuided + " --spp 40 --seed 7 --guiding radiance --guiding-bsdf-fraction learned");
+    // Periodic checkpoints (a segment ends at nearly every pass, inside iterations and at their ends).
+    const std::string alone = dir.file("alone.exr");
+    const std::string args = kGuided + " --spp 40 --seed 8 --guiding variance --guiding-bsdf-fraction learned -q";
+    REQUIRE(sh(kRender + " " + args + " -o " + alone).code == 0);
+    for (int n : {2, 3}) {
+        const std::string out = dir.file("periodic" + std::to_string(n) + ".exr");
+        const Run r = sh(mpirun(n) + kRender + " " + args + " --threads 1 --checkpoint " + dir.file("p.ckpt") +
+                         " --checkpoint-every 0.001 -o " + out);
+        INFO(n << " ranks: " << r.output);
+        REQUIRE(r.code == 0);
+        CHECK(differing(readImage(out), readImage(alone)) == 0);
+        CHECK(checkpointPasses(dir.file("p.ckpt")) == 40);
+    }
+}
+
+TEST_CASE("MPI: a guided render stopped by SIGINT on 3 ranks resumes with 1 and with 2 to the straight image",
+          "[mpi][guiding][checkpoint]") {
+    // The checkpoint holds rank 0's trainer state: every rank's records applied and sums added.
+    // (2000 spp train 1023 passes: the signal, sent to rank 0 once the first checkpoint exists,
+    // most likely stops the render inside a training iteration; mpirun passes a signal on about a
+    // second late. Any stop must resume to the straight image.)
+    TempDir dir("lt_test_mpi_guided_int");
+    const std::string args = kGuided + " -D res=16 --spp 2000 --seed 4 --guiding variance --guiding-bsdf-fraction learned";
+    interruptedRun(dir, args, "kill -INT $PID_ROOT", 3, 0.0);
+    INFO(readText(dir.file("log.txt")));
+    REQUIRE(std::filesystem::exists(dir.file("c.ckpt")));
+    const uint64_t saved = checkpointPasses(dir.file("c.ckpt"));
+    INFO("stopped at " << saved << " passes");
+    REQUIRE(saved < 2000);
+    const std::string straight = dir.file("straight.exr");
+    REQUIRE(sh(kRender + " " + args + " -q -o " + straight).code == 0);
+    for (int n : {1, 2}) {
+        const std::string out = dir.file("resumed" + std::to_string(n) + ".exr");
+        const std::string launch = n == 1 ? std::string() : mpirun(n);
+        const Run r = sh(launch + kRender + " " + args + " -q --threads 1 --resume " + dir.file("c.ckpt") + " -o " + out);
+        INFO(n << " ranks: " << r.output);
+        REQUIRE(r.code == 0);
+        CHECK(differing(readImage(out), readImage(straight)) == 0);
+    }
+}
+
+// The passes guided PT trains with a budget of `spp` passes (Trainer: iteration k, 2^k passes,
+// trains while it would end within the first half of the budget).
+uint64_t trainingPassesFor(uint64_t spp) {
+    if (spp < 2) return 0;
+    uint64_t end = 1;  // iteration 0 (one pass) trains
+    for (int k = 1; 2 * (end + (uint64_t(1) << k)) <= spp; ++k) end += uint64_t(1) << k;
+    return end;
+}
+
+TEST_CASE("MPI: a guided --time render follows rank 0's schedule on every rank", "[mpi][guiding]") {
+    // With --time, rank 0's clock decides whether the next iteration trains, and every rank must
+    // follow it: ranks that part ways wait for each other (the test's time limit fails them) or
+    // hold other trees (the ranks compare their trees' hashes at every iteration's end: an error).
+    // Where rank 0 chose the schedule --spp P would (both train while the next iteration ends
+    // within half the budget, in seconds or in passes), the image is the single process's with
+    // --spp P bit for bit. The clock often stops training an iteration earlier (its iterations
+    // cost more than the final one's passes): such a render has no single-process twin, and the
+    // next limit is tried.
+    TempDir dir("lt_test_mpi_guided_time");
+    const std::string args = kGuided + " --guiding variance --seed 2 -q";
+    int compared = 0;
+    for (const char* limit : {"0.04", "0.06", "0.08", "0.12", "0.16"}) {
+        const std::string out = dir.file("timed.exr"), stats = dir.file("timed.json");
+        const Run r = sh(mpirun(2) + kRender + " " + args + " --time " + limit + " --threads 1 -o " + out +
+                         " --stats-json " + stats);
+        INFO(r.output);
+        REQUIRE(r.code == 0);
+        const nlohmann::json j = nlohmann::json::parse(readText(stats));
+        const uint64_t spp = j["spp"], training = j["guiding_training_spp"];
+        const int iterations = j["guiding_iterations"];
+        INFO("--time " << limit << ": " << spp << " spp, " << training << " training in " << iterations << " iterations");
+        REQUIRE(spp > 3);
+        uint64_t sum = 0;
+        for (const auto& n : j["mpi_passes_per_rank"]) sum += n.get<uint64_t>();
+        CHECK(sum == spp);
+        CHECK(training == (uint64_t(1) << (iterations - 1)) - 1);  // (the iterations before the last: 1, 2, 4, ...)
+        if (training != trainingPassesFor(spp)) continue;
+        const std::string alone = dir.file("alone.exr");
+        REQUIRE(sh(kRender + " " + args + " --spp " + std::to_string(spp) + " -o " + alone).code == 0);
+        CHECK(differing(readImage(out), readImage(alone)) == 0);
+        ++compared;
+    }
+    if (compared == 0) WARN("every --time render chose a schedule --spp would not: no image compared");
 }
 
 TEST_CASE("MPI: reference renders its chunks with every rank, the image of one process", "[mpi]") {

@@ -192,9 +192,5 @@ static int run(int argc, char** argv, const dist::Session& session) {
 
 int main(int argc, char** argv) {
     dist::Session session(argc, argv);
-    if (!session.root() && (!std::freopen("/dev/null", "w", stderr) || !std::freopen("/dev/null", "w", stdout)))
-        return 4;  // (rank 0 alone speaks: the others run the same checks)
-    const int rc = run(argc, argv, session);
-    if (session.cluster() && rc != 0 && rc != 5) session.abort(rc);  // (the others wait in a collective)
-    return rc;
+    return session.run([&] { return run(argc, argv, session); });
 }

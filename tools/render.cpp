@@ -596,6 +596,8 @@ static int run(int argc, char** argv, const dist::Session& session) {
     if (!stats.passesPerRank.empty())
         fmt::print(", {} MPI ranks (passes {}), films added in {:.3f} s", stats.passesPerRank.size(),
                    fmt::join(stats.passesPerRank, "/"), stats.reduceSeconds);
+    if (!stats.passesPerRank.empty() && settings.guiding != "off")
+        fmt::print(", guiding shared in {:.3f} s", stats.guidingShareSeconds);
     if (stats.invalidRegularisation > 0)  // (never expected: each is a refused technique, reported)
         fmt::print(", {} regulariser values not a number (their techniques refused)", stats.invalidRegularisation);
     fmt::print(" -> {}\n", output);
@@ -645,6 +647,7 @@ static int run(int argc, char** argv, const dist::Session& session) {
             j["mpi_ranks"] = stats.passesPerRank.size();
             j["mpi_passes_per_rank"] = stats.passesPerRank;
             j["mpi_reduce_seconds"] = stats.reduceSeconds;
+            if (settings.guiding != "off") j["mpi_guiding_share_seconds"] = stats.guidingShareSeconds;
         }
         if (stats.interrupted) j["interrupted"] = true;
         std::ofstream f(statsJson);
@@ -664,11 +667,5 @@ static int run(int argc, char** argv, const dist::Session& session) {
 
 int main(int argc, char** argv) {
     dist::Session session(argc, argv);
-    // Under mpirun every rank runs the same checks and prints the same messages: rank 0 alone
-    // speaks (a rank that fails alone still ends the job with its code, below).
-    if (!session.root() && (!std::freopen("/dev/null", "w", stderr) || !std::freopen("/dev/null", "w", stdout))) return 4;
-    const int rc = run(argc, argv, session);
-    // A rank that stops with an error would leave the others waiting in a collective: end them all.
-    if (session.cluster() && rc != 0 && rc != 5) session.abort(rc);
-    return rc;
+    return session.run([&] { return run(argc, argv, session); }, 5);  // (5: interrupted, the image written)
 }

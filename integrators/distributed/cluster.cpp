@@ -1,5 +1,6 @@
 #include "integrators/distributed/cluster.h"
 
+#include <cstdio>
 #include <cstdlib>
 
 namespace lt::dist {
@@ -29,6 +30,13 @@ Session::~Session() {
         stopMpi();
     }
 #endif
+}
+
+int Session::run(const std::function<int()>& run, int interrupted) const {
+    if (!root() && (!std::freopen("/dev/null", "w", stderr) || !std::freopen("/dev/null", "w", stdout))) abort(4);
+    const int rc = run();
+    if (cluster_ && rc != 0 && rc != interrupted) abort(rc);
+    return rc;
 }
 
 void Session::abort(int code) const {

@@ -9,6 +9,7 @@
 // signal is the single-process image of P passes.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -42,6 +43,10 @@ public:
     virtual uint64_t max(uint64_t v) = 0;
     virtual double valueAtLargest(uint64_t key, double v) = 0;  // v of the rank with the largest key
     virtual std::vector<uint64_t> gather(uint64_t v) = 0;        // every rank's v, by rank
+    // Bytes of any size: rank `from`'s, on every rank; every rank's, by rank, on rank 0 (the
+    // others get an empty vector).
+    virtual std::string broadcast(const std::string& bytes, int from) = 0;
+    virtual std::vector<std::string> gatherBytes(const std::string& bytes) = 0;
     // Adds every rank's film into rank 0's (Film::addState, exact: any order gives the same bits);
     // the other ranks' films are left as they were.
     virtual void reduceFilm(Film& film) = 0;
@@ -62,6 +67,11 @@ public:
     // Ends every rank at once (MPI_Abort) with `code`, e.g. where one rank fails and the others
     // would wait for it in a collective; alone: std::exit.
     [[noreturn]] void abort(int code) const;
+    // A tool's main under a launcher: runs `run` with the ranks other than 0 silenced (every rank
+    // runs the same checks and would print the same messages), and ends every rank where one
+    // returns an error (anything but 0 and `interrupted`), as the others would wait for it in a
+    // collective.
+    int run(const std::function<int()>& run, int interrupted = 0) const;
 
 private:
     std::unique_ptr<Cluster> cluster_;

@@ -92,6 +92,24 @@ public:
         check(MPI_Allgather(&v, 1, MPI_UINT64_T, all.data(), 1, MPI_UINT64_T, MPI_COMM_WORLD), "MPI_Allgather");
         return all;
     }
+    std::string broadcast(const std::string& bytes, int from) override {
+        uint64_t n = bytes.size();
+        check(MPI_Bcast(&n, 1, MPI_UINT64_T, from, MPI_COMM_WORLD), "MPI_Bcast");
+        std::string out = rank_ == from ? bytes : std::string(n, '\0');
+        for (size_t at = 0; at < n; at += kPiece)
+            check(MPI_Bcast(out.data() + at, int(std::min(kPiece, n - at)), MPI_BYTE, from, MPI_COMM_WORLD), "MPI_Bcast");
+        return out;
+    }
+    std::vector<std::string> gatherBytes(const std::string& bytes) override {
+        if (rank_ != 0) {
+            sendBytes(bytes, 0);
+            return {};
+        }
+        std::vector<std::string> all(static_cast<size_t>(size_));
+        all[0] = bytes;
+        for (int r = 1; r < size_; ++r) all[size_t(r)] = receiveBytes(r);
+        return all;
+    }
     void reduceFilm(Film& film) override {
         // Binomial tree: at step s, ranks that are multiples of 2s take the film of rank + s.
         for (int step = 1; step < size_; step *= 2) {
