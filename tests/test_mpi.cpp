@@ -288,6 +288,34 @@ TEST_CASE("MPI: a guided --time render follows rank 0's schedule on every rank",
     if (compared == 0) WARN("every --time render chose a schedule --spp would not: no image compared");
 }
 
+TEST_CASE("MPI: a rank on a busy core renders fewer passes and the image stays the same", "[mpi]") {
+    // Uneven machines: rank 0 alone on core 0, rank 1 on core 1 beside a busy loop (so at about
+    // half the speed). Passes are handed out on demand, so rank 0 should render about twice rank
+    // 1's; a static split would give 100/100. The threshold 1.3 leaves room for the machine's
+    // other load, which slows both cores. The image: the single process's, bit for bit (plain
+    // and guided PT).
+    TempDir dir("lt_test_mpi_uneven");
+    for (const std::string& args : {kScene + " -D res=64 --spp 200 --seed 1", kGuided + " --guiding variance --spp 64"}) {
+        const std::string alone = dir.file("alone.exr"), out = dir.file("uneven.exr"), stats = dir.file("uneven.json");
+        REQUIRE(sh(kRender + " " + args + " -q -o " + alone).code == 0);
+        const std::string rank = kRender + " " + args + " --threads 1 -q -o " + out + " --stats-json " + stats;
+        const std::string script = dir.write("uneven.sh", "#!/bin/bash\n"
+            "taskset -c 1 bash -c 'while :; do :; done' &\n"
+            "HOG=$!\n"
+            "trap 'kill $HOG' EXIT\n" +
+            std::string(LT_MPIEXEC) + " --allow-run-as-root --oversubscribe --bind-to none -n 1 taskset -c 0 " + rank +
+            " : -n 1 taskset -c 1 " + rank + "\n");
+        const Run r = sh("bash " + script);
+        INFO(args << "\n" << r.output);
+        REQUIRE(r.code == 0);
+        CHECK(differing(readImage(out), readImage(alone)) == 0);
+        const nlohmann::json j = nlohmann::json::parse(readText(stats));
+        const uint64_t fast = j["mpi_passes_per_rank"][0], slow = j["mpi_passes_per_rank"][1];
+        INFO("passes: " << fast << " on the free core, " << slow << " on the busy one");
+        if (args.find("guiding") == std::string::npos) CHECK(double(fast) >= 1.3 * double(slow));
+    }
+}
+
 TEST_CASE("MPI: reference renders its chunks with every rank, the image of one process", "[mpi]") {
     TempDir dir("lt_test_mpi_ref");
     const std::string ref = std::string(LT_TOOLS_DIR) + "/reference " + kScene +
