@@ -36,6 +36,7 @@
 #include "bsdf/principled.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 
 #include "bsdf/fresnel.h"
@@ -56,18 +57,34 @@ float gtr1Peak(float alpha) {
 float gtr1AlphaForBound(float bound) {
     if (!(bound < kInf)) return 0.f;
     if (gtr1Peak(kMaxGtr1Alpha) > bound) return kMaxGtr1Alpha;
-    // (gtr1Peak falls strictly on (0, 1): bisection in log alpha, hi always meets the bound)
-    double lo = std::log(1e-6), hi = std::log(double(kMaxGtr1Alpha));
-    for (int i = 0; i < 40; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (gtr1Peak(float(std::exp(mid))) <= bound ? hi : lo) = mid;
+    // In u = ln(1 / a^2) the peak is (1 - e^-u) e^u / (pi u), so ln peak - ln bound is
+    // g(u) = ln(1 - e^-u) + u - ln(pi u) - ln bound, increasing (g' = 1 / (e^u - 1) + 1 - 1/u > 0);
+    // its root is the alpha sought. Newton's steps from the large-u guess ln(pi bound ln(pi bound)),
+    // kept inside a shrinking bracket (a bisection step where Newton's leaves it).
+    const double logBound = std::log(double(bound));
+    double lo = -std::log(double(kMaxGtr1Alpha) * kMaxGtr1Alpha), hi = -std::log(1e-12);  // alpha in [1e-6, 0.99]
+    auto g = [&](double u) { return std::log(-std::expm1(-u)) + u - std::log(std::numbers::pi * u) - logBound; };
+    const double pb = std::numbers::pi * double(bound);
+    double u = std::clamp(std::log(pb * std::max(1.0, std::log(pb))), lo, hi);
+    for (int i = 0; i < 60 && hi - lo > 1e-9 * hi; ++i) {
+        const double gu = g(u);
+        (gu > 0.0 ? hi : lo) = u;
+        const double step = gu / (1.0 / std::expm1(u) + 1.0 - 1.0 / u);
+        u = u - step > lo && u - step < hi ? u - step : 0.5 * (lo + hi);
+        if (std::abs(step) < 1e-10 * u) break;
     }
-    return float(std::exp(hi));
+    // The least float alpha whose peak, as gtr1Peak computes it, meets the bound.
+    float a = std::min(float(std::exp(-0.5 * u)), kMaxGtr1Alpha);
+    while (a < kMaxGtr1Alpha && gtr1Peak(a) > bound) a = std::nextafter(a, 1.f);
+    while (a > 1e-6f && gtr1Peak(std::nextafter(a, 0.f)) <= bound) a = std::nextafter(a, 0.f);
+    return a;
 }
 
 float resolveGtr1(float alpha, float weight, const RegularizationRequest& r) {
     float a = std::max({alpha, r.minAlpha.alphaU, r.minAlpha.alphaV});
-    if (r.tau < kInf && weight > 0.f) a = std::max(a, gtr1AlphaForBound(r.tau / weight));
+    // (an alpha that meets the bound already stands: gtr1Peak falls with alpha)
+    if (r.tau < kInf && weight > 0.f && a < kMaxGtr1Alpha && gtr1Peak(a) > r.tau / weight)
+        a = std::max(a, gtr1AlphaForBound(r.tau / weight));
     return std::min(a, kMaxGtr1Alpha);
 }
 

@@ -142,6 +142,30 @@ float maxValue(const Bxdf& b, const BsdfContext& ctx) {
 // JG19's property: under a bound tau every regularised lobe's value stays below tau (the bare
 // cases, where every value is a lobe's), and valueBound bounds the whole model under every request
 // (the diffuse and sheen lobes' bound added), falls with tau and is finite.
+TEST_CASE("GTR1's alpha for a bound is the least float alpha whose peak meets it", "[principled][regularization]") {
+    // gtr1AlphaForBound solves gtr1Peak(alpha) = bound (Newton's method in ln(1 / alpha^2)): for
+    // bounds from below the peak at alpha 0.99 up to 10^12 (log-spaced), the alpha returned meets
+    // the bound, the next float below does not, and alpha falls as the bound rises.
+    using namespace principled_detail;
+    float last = 1.f;
+    for (int i = 0; i <= 3000; ++i) {
+        const float bound = float(std::pow(10.0, -0.6 + 12.6 * i / 3000.0));
+        const float a = gtr1AlphaForBound(bound);
+        INFO("bound " << bound << " alpha " << a);
+        REQUIRE(a > 0.f);
+        REQUIRE(a <= kMaxGtr1Alpha);
+        if (a < kMaxGtr1Alpha) {
+            CHECK(gtr1Peak(a) <= bound);
+            if (a > 1e-6f) CHECK(gtr1Peak(std::nextafter(a, 0.f)) > bound);
+        } else {
+            CHECK(gtr1Peak(std::nextafter(a, 0.f)) > bound);  // (capped: even 0.99 does not meet it)
+        }
+        CHECK(a <= last);
+        last = a;
+    }
+    CHECK(gtr1AlphaForBound(kInf) == 0.f);
+}
+
 TEST_CASE("principled and principledthin under a bound: each lobe stays under tau and valueBound bounds the model",
           "[principled][regularization]") {
     for (const Case& c : cases())
