@@ -48,7 +48,7 @@ public:
     void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) override {
         const Camera& cam = scene.camera();
         const size_t nPaths = size_t(cam.width()) * cam.height();
-        if (pass == 0 && !settings_.strategyImages.empty())
+        if (pass == 0 && !strategies_ && !settings_.strategyImages.empty())
             strategies_ = std::make_unique<StrategyImages>(cam.width(), cam.height(), maxDepth_);
         // Default as SmallVCM: 0.003 x the radius of the geometry's bounding sphere.
         float r0 = settings_.radius > 0.f ? settings_.radius : 0.003f * scene.geometryRadius();
@@ -116,7 +116,16 @@ public:
     }
 
     void finish(const Scene&, uint64_t passes) override {
-        if (strategies_) strategies_->write(settings_.strategyImages, passes);
+        if (strategies_ && writesFiles_) strategies_->write(settings_.strategyImages, passes);
+    }
+    // Several ranks: the strategy images are added on rank 0, which writes them.
+    void startRanks(const Scene& scene, dist::Cluster& cluster, uint64_t first) override {
+        writesFiles_ = cluster.root();
+        if (first == 0 && !settings_.strategyImages.empty())
+            strategies_ = std::make_unique<StrategyImages>(scene.camera().width(), scene.camera().height(), maxDepth_);
+    }
+    void shareSegment(dist::Cluster& cluster, uint64_t, bool toRoot) override {
+        if (strategies_ && toRoot) gatherOnRoot(*strategies_, cluster);
     }
 
 private:
@@ -272,6 +281,7 @@ private:
     std::vector<SplatBuffer> splats_;
     HashGrid grid_;
     std::unique_ptr<StrategyImages> strategies_;
+    bool writesFiles_ = true;  // (with several ranks: rank 0 alone)
 };
 
 }  // namespace

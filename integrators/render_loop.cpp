@@ -196,11 +196,6 @@ std::optional<guiding::GuidingSettings> guidingSettingsOf(const RenderSettings& 
 Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStats& stats,
                   const std::function<void(const Progress&)>& progress) {
     dist::Cluster* cluster = settings.cluster;
-    if (cluster && cluster->size() > 1) {
-        if (!settings.strategyImages.empty())
-            throw std::invalid_argument("--strategy-images with several MPI ranks is not supported yet: run them in "
-                                        "one process");
-    }
     auto integrator = makeIntegrator(settings);
     const Camera& cam = scene.camera();
     Film film(cam.width(), cam.height(), scene.desc().camera.filter, scene.desc().camera.filterStddev);

@@ -6,7 +6,9 @@
 #include <catch2/catch.hpp>
 
 #include <nlohmann/json.hpp>
+#include <filesystem>
 #include <string>
+#include <vector>
 
 #include "core/image.h"
 #include "process.h"
@@ -286,6 +288,37 @@ TEST_CASE("MPI: a guided --time render follows rank 0's schedule on every rank",
         ++compared;
     }
     if (compared == 0) WARN("every --time render chose a schedule --spp would not: no image compared");
+}
+
+TEST_CASE("MPI: strategy images are the single process's bit for bit with 2 and 3 ranks", "[mpi]") {
+    // Every rank's per-technique sums are added on rank 0, which writes them; the sums are exact,
+    // so the files are those of one process (of two threads here: the thread count does not
+    // matter either).
+    TempDir dir("lt_test_mpi_strategies");
+    const std::string glass = std::string(LT_SOURCE_DIR) + "/scenes/cornell-box-point-in-glass.xml -D res=24 --spp 6 -q";
+    for (const char* integrator : {"pt", "vcm"}) {
+        const std::string args = glass + " --integrator " + integrator + " --reg jg19";
+        const std::string alone = dir.file(std::string("alone_") + integrator);
+        REQUIRE(sh(kRender + " " + args + " --threads 2 --strategy-images " + alone + " -o " + dir.file("a.exr")).code == 0);
+        std::vector<std::string> names;
+        for (const auto& e : std::filesystem::directory_iterator(alone)) names.push_back(e.path().filename().string());
+        INFO(integrator << ": " << names.size() << " images");
+        REQUIRE(names.size() > 5);  // (techniques s, t and merges, and regularised.exr)
+        for (int n : {2, 3}) {
+            const std::string ranks = dir.file(std::string("ranks_") + integrator + std::to_string(n));
+            const Run r = sh(mpirun(n) + kRender + " " + args + " --threads 1 --strategy-images " + ranks + " -o " +
+                             dir.file("r.exr"));
+            INFO(n << " ranks: " << r.output);
+            REQUIRE(r.code == 0);
+            size_t files = 0;
+            for (const auto& e : std::filesystem::directory_iterator(ranks)) ++files, (void)e;
+            CHECK(files == names.size());
+            for (const std::string& name : names) {
+                INFO(name);
+                CHECK(differing(readImage(ranks + "/" + name), readImage(alone + "/" + name)) == 0);
+            }
+        }
+    }
 }
 
 TEST_CASE("MPI: a rank on a busy core renders fewer passes and the image stays the same", "[mpi]") {
