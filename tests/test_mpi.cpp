@@ -322,32 +322,32 @@ TEST_CASE("MPI: strategy images are the single process's bit for bit with 2 and 
 }
 
 TEST_CASE("MPI: a rank on a busy core renders fewer passes and the image stays the same", "[mpi]") {
-    // Uneven machines: rank 0 alone on core 0, rank 1 on core 1 beside three busy loops (so at
-    // about a quarter of the speed). Passes are handed out on demand, so rank 0 should render
-    // about four times rank 1's; a static split would give 100/100. The threshold 1.3 leaves room
-    // for other load (ctest runs the MPI tests alone, RUN_SERIAL, but the machine may be shared):
-    // a process beside rank 0 too still leaves a ratio near 2. The image: the single process's,
-    // bit for bit (plain and guided PT).
+    // Uneven machines: rank 0 on core 0, rank 1 on core 1 at nice 19 beside a busy loop at nice
+    // 0 (the scheduler gives it about 1.5% of that core). Passes are handed out on demand, so
+    // rank 0 should render nearly all of them; a static split would give 100/100. The threshold
+    // 1.3 holds under other load on the machine: two more busy loops beside rank 0 still leave it
+    // a third of its core, some twenty times rank 1's share. The image: the single process's, bit
+    // for bit. (Guided renders split unevenly in the tests above; here a training segment would
+    // wait for rank 1's pass.)
     TempDir dir("lt_test_mpi_uneven");
-    for (const std::string& args : {kScene + " -D res=64 --spp 200 --seed 1", kGuided + " --guiding variance --spp 64"}) {
-        const std::string alone = dir.file("alone.exr"), out = dir.file("uneven.exr"), stats = dir.file("uneven.json");
-        REQUIRE(sh(kRender + " " + args + " -q -o " + alone).code == 0);
-        const std::string rank = kRender + " " + args + " --threads 1 -q -o " + out + " --stats-json " + stats;
-        const std::string script = dir.write("uneven.sh", "#!/bin/bash\n"
-            "HOGS=\n"
-            "for i in 1 2 3; do taskset -c 1 bash -c 'while :; do :; done' & HOGS=\"$HOGS $!\"; done\n"
-            "trap 'kill $HOGS' EXIT\n" +
-            std::string(LT_MPIEXEC) + " --allow-run-as-root --oversubscribe --bind-to none -n 1 taskset -c 0 " + rank +
-            " : -n 1 taskset -c 1 " + rank + "\n");
-        const Run r = sh("bash " + script);
-        INFO(args << "\n" << r.output);
-        REQUIRE(r.code == 0);
-        CHECK(differing(readImage(out), readImage(alone)) == 0);
-        const nlohmann::json j = nlohmann::json::parse(readText(stats));
-        const uint64_t fast = j["mpi_passes_per_rank"][0], slow = j["mpi_passes_per_rank"][1];
-        INFO("passes: " << fast << " on the free core, " << slow << " on the busy one");
-        if (args.find("guiding") == std::string::npos) CHECK(double(fast) >= 1.3 * double(slow));
-    }
+    const std::string args = kScene + " -D res=64 --spp 200 --seed 1";
+    const std::string alone = dir.file("alone.exr"), out = dir.file("uneven.exr"), stats = dir.file("uneven.json");
+    REQUIRE(sh(kRender + " " + args + " -q -o " + alone).code == 0);
+    const std::string rank = kRender + " " + args + " --threads 1 -q -o " + out + " --stats-json " + stats;
+    const std::string script = dir.write("uneven.sh", "#!/bin/bash\n"
+        "taskset -c 1 bash -c 'while :; do :; done' &\n"
+        "HOG=$!\n"
+        "trap 'kill $HOG' EXIT\n" +
+        std::string(LT_MPIEXEC) + " --allow-run-as-root --oversubscribe --bind-to none -n 1 taskset -c 0 " + rank +
+        " : -n 1 taskset -c 1 nice -n 19 " + rank + "\n");
+    const Run r = sh("bash " + script);
+    INFO(args << "\n" << r.output);
+    REQUIRE(r.code == 0);
+    CHECK(differing(readImage(out), readImage(alone)) == 0);
+    const nlohmann::json j = nlohmann::json::parse(readText(stats));
+    const uint64_t fast = j["mpi_passes_per_rank"][0], slow = j["mpi_passes_per_rank"][1];
+    INFO("passes: " << fast << " on the free core, " << slow << " on the busy one");
+    CHECK(double(fast) >= 1.3 * double(slow));
 }
 
 TEST_CASE("MPI: reference renders its chunks with every rank, the image of one process", "[mpi]") {
