@@ -116,11 +116,10 @@ public:
     }
 
     void finish(const Scene&, uint64_t passes) override {
-        if (strategies_ && writesFiles_) strategies_->write(settings_.strategyImages, passes);
+        if (strategies_) strategies_->write(settings_.strategyImages, passes);
     }
     // Several ranks: the strategy images are added on rank 0, which writes them.
-    void startRanks(const Scene& scene, dist::Cluster& cluster, uint64_t first) override {
-        writesFiles_ = cluster.root();
+    void startRanks(const Scene& scene, dist::Cluster&, uint64_t first) override {
         if (first == 0 && !settings_.strategyImages.empty())
             strategies_ = std::make_unique<StrategyImages>(scene.camera().width(), scene.camera().height(), maxDepth_);
     }
@@ -281,7 +280,6 @@ private:
     std::vector<SplatBuffer> splats_;
     HashGrid grid_;
     std::unique_ptr<StrategyImages> strategies_;
-    bool writesFiles_ = true;  // (with several ranks: rank 0 alone)
 };
 
 }  // namespace

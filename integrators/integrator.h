@@ -173,7 +173,8 @@ public:
     virtual void beginPass(const Scene& scene, Film& film, uint32_t pass, WalkStats& stats) {}
     // Called once per pass after its tiles (path guiding applies the pass's records).
     virtual void endPass(const Scene& scene, Film& film, uint32_t pass) {}
-    // Called once after the last pass (e.g. to write per-strategy images).
+    // Called once after the last pass (e.g. to write per-strategy images); with several ranks, on
+    // rank 0 alone.
     virtual void finish(const Scene& scene, uint64_t passes) {}
     // The image of the passes done when it is not the film's average (path guiding combines its
     // iterations); false: the film's.

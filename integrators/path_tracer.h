@@ -51,7 +51,7 @@ public:
     double regularisationTau() const override { return regularisationTauOf(reg_); }
     uint64_t invalidRegularisation() const override { return invalidRegularisationOf(reg_); }
     void finish(const Scene& scene, uint64_t passes) override {
-        if (strategies_ && writesFiles_) strategies_->write(settings_.strategyImages, passes);
+        if (strategies_) strategies_->write(settings_.strategyImages, passes);
         // (a checkpoint of a finished render resumed: no pass ran, the image is the saved state's)
         if (guiding_ && !trainer_ && passes > 0) startGuiding(scene, true);
         if (trainer_ && !settings_.guidingDump.empty()) guiding::dumpGuide(scene, trainer_->tree(), settings_.guidingDump);
@@ -65,13 +65,11 @@ public:
 
     // Several ranks: the call sequence of trainer.h ("Several ranks"), one Trainer per rank.
     void startRanks(const Scene& scene, dist::Cluster& cluster, uint64_t first) override {
-        writesFiles_ = cluster.root();  // (rank 0 writes every file)
         if (first == 0 && !settings_.strategyImages.empty())
             strategies_ = std::make_unique<StrategyImages>(scene.camera().width(), scene.camera().height(),
                                                            maxDepthOf(settings_));
         if (!guiding_) return;
         ranks_ = true;
-        if (!writesFiles_) settings_.guidingDump.clear();
         if (first > 0) settings_.resumeIntegrator = cluster.broadcast(settings_.resumeIntegrator, 0);
         startGuiding(scene, first > 0);
         trainer_->deferRecords(true);
@@ -429,7 +427,6 @@ private:
     static constexpr uint64_t kPassesPerRank = 4;
     bool ranks_ = false;
     std::map<uint64_t, std::string> kept_;
-    bool writesFiles_ = true;  // (with several ranks: rank 0 alone)
 };
 
 }  // namespace

@@ -335,7 +335,7 @@ Image renderImage(const Scene& scene, const RenderSettings& settings, RenderStat
     }
     if (settings.checkpoint && passes != savedPasses && (!cluster || cluster->root()))
         settings.checkpoint(passes, film, integrator->state());  // (not twice the same)
-    integrator->finish(scene, passes);
+    if (!cluster || cluster->root()) integrator->finish(scene, passes);  // (rank 0 writes every file)
     stats.seconds = elapsed();
     stats.spp = passes;
     stats.samples = passes * uint64_t(cam.width()) * cam.height();

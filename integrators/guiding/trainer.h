@@ -68,7 +68,8 @@ public:
     //     (Optionally, to bound memory: takeDeferred() after each pass and applyDeferred() whatever
     //     has arrived; it applies the passes as soon as they are contiguous.)
     //  3. Where E == iterationEnd() (a training iteration ends), on every rank:
-    //     a. parts = every rank's takeDeferred() (an allgather); applyDeferred(parts).
+    //     a. parts = every rank's takeDeferred() (an allgather); applyDeferred(parts). (Or, as
+    //        path_tracer.h does, each pass's bytes broadcast and applied in pass order.)
     //     b. the sums: the other ranks' takeIterationSums() added on rank 0 (addIterationSums, in
     //        any order or any reduction tree: the sums are exact), then rank 0's iterationSums()
     //        broadcast and added by every other rank (theirs were taken: they now hold the total).
